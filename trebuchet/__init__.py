@@ -1,0 +1,1 @@
+"""trebuchet: internal forces of the swinging-counterweight trebuchet."""
