@@ -1,0 +1,124 @@
+"""The time axis of a log: from frame numbers, its order, and times rounded to milliseconds."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from trebuchet.errors import TrebuchetInputError
+
+
+def check_fps(path: str | Path, fps: float | None) -> float | None:
+    """Return ``fps`` (frames per second) as a float; error unless None or positive and finite."""
+    if fps is None:
+        return None
+    try:
+        value = float(fps)
+    except (TypeError, ValueError):
+        raise TrebuchetInputError(f"{path}: fps={fps!r} is not a number") from None
+    if not math.isfinite(value) or value <= 0:
+        raise TrebuchetInputError(f"{path}: fps={fps!r} must be a positive frame rate (1/s)")
+    return value
+
+
+def frames_to_time(
+    path: str | Path, frame: np.ndarray, rows: np.ndarray, fps: float | None, label: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return (t in s, frame as int64) from frame numbers and the frame rate ``fps`` (1/s).
+
+    ``t = frame / fps``, so the log's time is zero at frame 0 of the video. Errors: no fps,
+    an empty or non-integer frame number (naming its row).
+    """
+    if fps is None:
+        raise TrebuchetInputError(
+            f"{path}: column '{label}' holds frame numbers and the file has no time column; "
+            f"pass the frame rate, e.g. fps=240"
+        )
+    bad = ~np.isfinite(frame)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise TrebuchetInputError(f"{path}, row {rows[k]}, column '{label}': frame number is empty")
+    frac = np.abs(frame - np.round(frame))
+    if (frac > 1e-9).any():
+        k = int(np.argmax(frac > 1e-9))
+        raise TrebuchetInputError(
+            f"{path}, row {rows[k]}, column '{label}': frame number {frame[k]:g} is not whole"
+        )
+    frame_int = np.round(frame).astype(np.int64)
+    return frame_int / fps, frame_int
+
+
+def check_time(path: str | Path, t: np.ndarray, rows: np.ndarray, label: str) -> None:
+    """Error for an empty time cell or a time earlier than the row before (naming the row)."""
+    bad = ~np.isfinite(t)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise TrebuchetInputError(f"{path}, row {rows[k]}, column '{label}': the time is empty")
+    back = np.diff(t) < 0
+    if back.any():
+        k = int(np.argmax(back)) + 1
+        raise TrebuchetInputError(
+            f"{path}, row {rows[k]}, column '{label}': time decreases "
+            f"({t[k]:.6g} s after {t[k - 1]:.6g} s on row {rows[k - 1]}); "
+            f"a log must be in the order of its frames"
+        )
+
+
+def snap_rounded_times(
+    path: str | Path, t: np.ndarray, rows: np.ndarray, fps: float | None, step: float
+) -> tuple[np.ndarray, float | None, str | None]:
+    """Replace times rounded to ``step`` seconds (e.g. Kinovea's whole ms) by frame times.
+
+    With ``fps`` known, each time becomes ``round(t * fps) / fps``; a time further than
+    ``step / 2`` from its frame is an error naming the row (the frame rate does not fit).
+    Without ``fps`` the frame period is fitted by least squares over the frame indices
+    implied by the steps; the fit is used only if it reproduces every time within
+    ``step / 2``. Returns (times in s, frame rate used or fitted or None, repair text or None).
+    Times that already lie on the frame grid are returned unchanged with no repair.
+    """
+    tol = step / 2 + 1e-9
+    if len(t) < 2:
+        return t, fps, None
+    if fps is not None:
+        snapped = np.round(t * fps) / fps
+        off = np.abs(snapped - t)
+        if (off > tol).any():
+            k = int(np.argmax(off > tol))
+            raise TrebuchetInputError(
+                f"{path}, row {rows[k]}: time {t[k]:.6g} s is {off[k] * 1e3:.2f} ms from the "
+                f"nearest frame at fps={fps:g}; is the frame rate right?"
+            )
+        how = f"the frame times k/fps at fps={fps:g}"
+        fitted = fps
+    else:
+        dt = np.diff(t)
+        positive = dt[dt > 0]
+        if len(positive) == 0:
+            return t, None, None
+        period = float(np.median(positive))
+        if period <= 2 * step:
+            return t, None, (
+                f"times are rounded to {step * 1e3:g} ms, too coarse for the frame period "
+                f"of about {period * 1e3:.3g} ms; pass fps= to recover exact frame times"
+            )
+        for _ in range(3):
+            steps = np.round(dt / period)
+            if (steps < 1).any():
+                return t, None, None
+            period = float(dt.sum() / steps.sum())
+        k = np.concatenate([[0.0], np.cumsum(steps)])
+        slope, intercept = np.polyfit(k, t, 1)
+        snapped = intercept + slope * k
+        if np.abs(snapped - t).max() > tol:
+            return t, None, None
+        fitted = 1.0 / slope
+        how = f"a fitted frame grid at {fitted:.6g} fps (pass fps= to use the exact rate)"
+    change = np.abs(snapped - t).max()
+    if change <= 1e-12:
+        return t, fitted, None
+    return snapped, fitted, (
+        f"times rounded to {step * 1e3:g} ms replaced by {how}; largest change "
+        f"{change * 1e3:.3g} ms"
+    )
