@@ -75,8 +75,8 @@ def read_log(
     points:
         ``{"pivot" | "spigot" | "hinge" | "counterweight" | "projectile": "<point name>"}``
         for files of point positions (Kinovea, DeepLabCut, Tracker point masses); parts
-        not given are found by their own name. theta needs pivot and spigot (or hinge),
-        psi hinge and counterweight, phi spigot and projectile.
+        not given are found by their own name. theta needs pivot and spigot, psi hinge
+        and counterweight, phi spigot and projectile.
     min_likelihood:
         DeepLabCut only: positions with a lower likelihood become gaps (default 0.9,
         stricter than DeepLabCut's own plotting cut-off of 0.6: second derivatives
