@@ -1,0 +1,1 @@
+"""Sample scenes and angle logs shipped with trebuchet (logs are synthetic: see README)."""

@@ -1,0 +1,65 @@
+"""Sub-commands of the model: ``simulate`` and ``paper``."""
+
+from __future__ import annotations
+
+import argparse
+
+from trebuchet.output import write_csv
+
+from .paper import paper_comparison
+from .scene import Scene
+from .simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("simulate", help="simulate a shot and write every force to CSV",
+                       description="Simulate a shot of SCENE and write the contract's columns.")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.add_argument("--dt", type=float, default=1e-3, help="output step in s (default 0.001)")
+    p.add_argument("--rtol", type=float, default=DEFAULT_RTOL,
+                   help=f"integrator tolerance (default {DEFAULT_RTOL:g})")
+    p.add_argument("--after-release", type=float, default=DEFAULT_AFTER_RELEASE,
+                   help=f"s of phase III to simulate (default {DEFAULT_AFTER_RELEASE:g})")
+    p.set_defaults(run=_simulate)
+
+    p = sub.add_parser("paper", help="compare the model with every number the paper quotes",
+                       description="Print the table quantity | paper | computed | difference.")
+    p.add_argument("--scene", help="scene file (default: the paper's Table 1 engine)")
+    p.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    p.add_argument("-o", "--output", help="also write the table as CSV")
+    p.set_defaults(run=_paper)
+
+
+def _simulate(args: argparse.Namespace) -> int:
+    scene = Scene.from_toml(args.scene)
+    run = simulate(scene, rtol=args.rtol, after_release=args.after_release, dt=args.dt)
+    write_csv(run, args.output)
+    ev, fl = run.attrs["events"], run.attrs["flight"]
+    print(f"lift-off {ev['lift_off']:.4f} s, release {ev['release']:.4f} s, "
+          f"range in vacuum {fl['range']:.1f} m; {len(run)} rows -> {args.output}")
+    return 0
+
+
+def format_paper_table(table, markdown: bool = False) -> str:
+    """The comparison table as aligned text or Markdown."""
+    rows = [("quantity", "unit", "paper", "computed", "difference", "", "note")]
+    for r in table.itertuples():
+        rows.append((f"{r.section}: {r.quantity}", r.unit, f"{r.paper:.6g}", f"{r.computed:.4g}",
+                     f"{r.difference:+.3g}", "" if r.agrees else "differs", r.note))
+    if markdown:
+        lines = ["| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
+        lines += ["| " + " | ".join(r) + " |" for r in rows[1:]]
+        return "\n".join(lines)
+    widths = [max(len(r[i]) for r in rows) for i in range(6)]
+    return "\n".join("  ".join(c.ljust(w) for c, w in zip(r[:6], widths, strict=True))
+                     + (f"  {r[6]}" if r[6] else "") for r in rows)
+
+
+def _paper(args: argparse.Namespace) -> int:
+    scene = Scene.from_toml(args.scene) if args.scene else None
+    table = paper_comparison(scene)
+    print(format_paper_table(table, markdown=args.markdown))
+    if args.output:
+        write_csv(table, args.output)
+    return 0

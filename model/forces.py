@@ -1,0 +1,244 @@
+"""Internal forces, torque, rates of work and energies (the paper's Sections 6–8).
+
+Every force is a sum of terms mass × length × rotated generalised
+acceleration, ``M_a L_a R_a A_a``, plus a constant gravity term, exactly as
+in the paper. The functions are pure and vectorised: angles (rad), rates
+(rad/s) and accelerations (rad/s²) are arrays over time, vectors come back as
+arrays of shape ``(2, n)`` in N. The simulator, the ingest path and the FMU
+all call these functions; :func:`loads` composes them into the columns of
+CONTRACT.md.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from . import kinematics as kin
+from .dynamics import trough_f_g
+from .scene import Engine, Scene
+
+__all__ = [
+    "centre_of_mass_force",
+    "hinge_force",
+    "hinge_force_along_arm",
+    "sling_force_in_sling",
+    "sling_force_along_sling",
+    "sling_force_in_trough",
+    "pivot_reaction",
+    "torque_contributions",
+    "trough_normal_force",
+    "energies",
+    "loads",
+    "LOAD_COLUMNS",
+]
+
+E_Y = np.array([[0.0], [1.0]])
+
+LOAD_COLUMNS = [
+    "F_S_x", "F_S_y", "F_H_x", "F_H_y", "F_CM_x", "F_CM_y", "F_R_x", "F_R_y", "torque",
+    "P_m", "P_M", "P_beam", "E_m", "E_M", "E_beam", "x_m", "y_m", "vx_m", "vy_m",
+]
+
+
+def centre_of_mass_force(theta, theta_d, theta_dd, e: Engine, g: float) -> np.ndarray:
+    """``F_CM = m_b L_CM R_θ A_θ + m_b g e_y`` (paper, eq. (10)), N: the force the rest of the
+    beam exerts on its centre-of-mass particle."""
+    return e.m_b * e.L_CM * kin.rotated_acceleration(theta, theta_d, theta_dd) + e.m_b * g * E_Y
+
+
+def hinge_force(theta, psi, theta_d, psi_d, theta_dd, psi_dd, e: Engine, g: float) -> np.ndarray:
+    """``F_H = −M L2 R_θ A_θ + M L3 R_ψ A_ψ + M g e_y`` (paper, eq. (11)), N: force from the
+    beam on the counterweight at the hinge."""
+    return (-e.M * e.L2 * kin.rotated_acceleration(theta, theta_d, theta_dd)
+            + e.M * e.L3 * kin.rotated_acceleration(psi, psi_d, psi_dd) + e.M * g * E_Y)
+
+
+def hinge_force_along_arm(theta, psi, theta_d, psi_d, theta_dd, e: Engine,
+                          g: float) -> np.ndarray:
+    """``(F_H·e_ψ) e_ψ``, N: eq. (11) projected on the counterweight arm, where the paper shows
+    ``F_H ∥ e_ψ``. The projection holds no ψ̈ (``e_ψ·R_ψ A_ψ = −ψ̇²``), so it is the robust form
+    for measured angles."""
+    e_psi = kin.unit(psi)
+    along = (-e.M * e.L2 * kin.dot(e_psi, kin.rotated_acceleration(theta, theta_d, theta_dd))
+             - e.M * e.L3 * psi_d * psi_d + e.M * g * e_psi[1])
+    return along * e_psi
+
+
+def sling_force_in_sling(theta, phi, theta_d, phi_d, theta_dd, phi_dd, e: Engine,
+                         g: float) -> np.ndarray:
+    """``F_S = m L1 R_θ A_θ + m L4 R_φ A_φ + m g e_y`` (paper, eq. (13)), N: sling tension on the
+    projectile in phase II."""
+    return (e.m * e.L1 * kin.rotated_acceleration(theta, theta_d, theta_dd)
+            + e.m * e.L4 * kin.rotated_acceleration(phi, phi_d, phi_dd) + e.m * g * E_Y)
+
+
+def sling_force_along_sling(theta, phi, theta_d, phi_d, theta_dd, e: Engine,
+                            g: float) -> np.ndarray:
+    """``(F_S·e_φ) e_φ``, N: eq. (13) projected on the sling (``F_S ∥ e_φ``); holds no φ̈."""
+    e_phi = kin.unit(phi)
+    along = (e.m * e.L1 * kin.dot(e_phi, kin.rotated_acceleration(theta, theta_d, theta_dd))
+             - e.m * e.L4 * phi_d * phi_d + e.m * g * e_phi[1])
+    return along * e_phi
+
+
+def sling_force_in_trough(theta, phi, theta_d, theta_dd, e: Engine) -> np.ndarray:
+    """``F_S = m L1 (f θ̈ + g θ̇²)(e_x + tan φ e_y)`` (paper, eq. (16)), N: sling tension on the
+    projectile dragged in the trough (phase I)."""
+    f, gg = trough_f_g(theta, phi, e)
+    a_x = e.L1 * (f * theta_dd + gg * theta_d * theta_d)
+    return e.m * a_x * np.array([np.ones_like(a_x), np.tan(phi)])
+
+
+def trough_normal_force(F_S_y, e: Engine, g: float):
+    """Normal force of the trough on the projectile, ``F_N = m g − F_S·e_y``, N (phase I).
+    Lift-off where it reaches zero."""
+    return e.m * g - F_S_y
+
+
+def pivot_reaction(F_H: np.ndarray, F_CM: np.ndarray, F_S: np.ndarray) -> np.ndarray:
+    """``F_R = F_H + F_CM + F_S`` (paper, eq. (14)), N: bearing reaction on the beam at P."""
+    return F_H + F_CM + F_S
+
+
+def torque_contributions(theta, F_H: np.ndarray, F_S: np.ndarray, e: Engine,
+                         g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The three terms of the torque on the beam about the pivot (paper, eq. (19)), N m:
+    hinge ``L2 F_H·e_θ⊥``, centre of mass ``−L_CM m_b g e_y·e_θ⊥``, spigot ``−L1 F_S·e_θ⊥``."""
+    perp = kin.unit_perp(theta)
+    return (e.L2 * kin.dot(F_H, perp), -e.L_CM * e.m_b * g * perp[1],
+            -e.L1 * kin.dot(F_S, perp))
+
+
+def energies(theta, psi, theta_d, psi_d, v_m: np.ndarray, y_m, e: Engine, g: float,
+             H: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mechanical energy (kinetic + potential, potential zero on the ground) of the projectile,
+    counterweight and beam, J (paper, Section 4)."""
+    r_M = kin.counterweight_position(theta, psi, e, H)
+    v_M = kin.counterweight_velocity(theta, psi, theta_d, psi_d, e)
+    E_m = 0.5 * e.m * kin.dot(v_m, v_m) + e.m * g * y_m
+    E_M = 0.5 * e.M * kin.dot(v_M, v_M) + e.M * g * r_M[1]
+    E_b = 0.5 * e.I * theta_d * theta_d + e.m_b * g * (H + e.L_CM * np.sin(theta))
+    return E_m, E_M, E_b
+
+
+def _col(df: pd.DataFrame, name: str) -> np.ndarray:
+    return df[name].to_numpy(dtype=float)
+
+
+def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projected"] = "direct",
+          release_state: dict[str, float] | None = None) -> pd.DataFrame:
+    """Every force, torque, power and energy of the contract from angles and their derivatives.
+
+    Parameters
+    ----------
+    angles : DataFrame
+        Columns ``t`` (s), ``phase`` (1 trough, 2 sling, 3 released), ``theta psi phi`` (rad),
+        ``*_d`` (rad/s) and ``*_dd`` (rad/s²). ``phi`` and its derivatives are ignored in
+        phase 3.
+    scene : Scene
+        The engine, gravity, and the rest pose that energies are counted from.
+    form : "direct" or "projected"
+        ``direct``: the paper's eqs. (11) and (13). ``projected``: F_H on the counterweight arm
+        and F_S on the sling, free of ψ̈ and φ̈ (robust on noisy measured angles).
+    release_state : dict, optional
+        Projectile ``t, x, y, vx, vy`` at release (s, m, m/s) for the ballistic phase 3. By
+        default the state of the last phase-2 row.
+
+    Returns
+    -------
+    DataFrame with the input columns, the contract's load columns (N, N m, W, J, m, m/s) and
+    extras: ``F_N`` (trough normal force), ``F_M_*`` and ``F_m_*`` (total force on
+    counterweight and projectile), ``sling_tension`` (negative means slack), ``*_par`` and
+    ``*_perp`` (components along and across the beam) and ``torque_hinge``, ``torque_cm``,
+    ``torque_spigot``, and magnitudes ``*_abs``.
+    """
+    e, g, H = scene.engine, scene.g, scene.start.H
+    phase = angles["phase"].to_numpy()
+    th, th_d, th_dd = _col(angles, "theta"), _col(angles, "theta_d"), _col(angles, "theta_dd")
+    ps, ps_d, ps_dd = _col(angles, "psi"), _col(angles, "psi_d"), _col(angles, "psi_dd")
+    in_trough, in_sling, free = phase == 1, phase == 2, phase == 3
+    held = in_trough | in_sling
+    with np.errstate(all="ignore"):
+        ph = np.where(held, _col(angles, "phi"), 0.0)
+        ph_d = np.where(held, _col(angles, "phi_d"), 0.0)
+        ph_dd = np.where(held, _col(angles, "phi_dd"), 0.0)
+        F_CM = centre_of_mass_force(th, th_d, th_dd, e, g)
+        if form == "direct":
+            F_H = hinge_force(th, ps, th_d, ps_d, th_dd, ps_dd, e, g)
+            F_sling = sling_force_in_sling(th, ph, th_d, ph_d, th_dd, ph_dd, e, g)
+        elif form == "projected":
+            F_H = hinge_force_along_arm(th, ps, th_d, ps_d, th_dd, e, g)
+            F_sling = sling_force_along_sling(th, ph, th_d, ph_d, th_dd, e, g)
+        else:
+            raise ValueError(f"form must be 'direct' or 'projected', got {form!r}")
+        F_trough = sling_force_in_trough(th, ph, th_d, th_dd, e)
+        F_S = np.where(in_trough, F_trough, np.where(in_sling, F_sling, 0.0))
+        F_R = pivot_reaction(F_H, F_CM, F_S)
+        t_hinge, t_cm, t_spigot = torque_contributions(th, F_H, F_S, e, g)
+        N = t_hinge + t_cm + t_spigot
+
+        r_m = kin.projectile_position(th, ph, e, H)
+        v_m = kin.projectile_velocity(th, ph, th_d, ph_d, e)
+    if free.any():
+        r_m, v_m = _ballistic(angles, r_m, v_m, held, free, g, release_state)
+
+    v_M = kin.counterweight_velocity(th, ps, th_d, ps_d, e)
+    v_CM = kin.centre_of_mass_velocity(th, th_d, e)
+    P_m = np.where(free, 0.0, kin.dot(F_S, v_m))
+    P_M = kin.dot(F_H, v_M)
+    P_beam = N * th_d + e.m_b * g * v_CM[1]
+    E_m, E_M, E_b = energies(th, ps, th_d, ps_d, v_m, r_m[1], e, g, H)
+    rest = scene.start
+    zero = np.zeros(1)
+    E_m0, E_M0, E_b0 = energies(np.array([rest.theta]), np.array([rest.psi]), zero, zero,
+                                np.zeros((2, 1)), np.array([0.0]), e, g, H)
+
+    F_N = np.where(in_trough, trough_normal_force(F_S[1], e, g), 0.0)
+    e_th, e_perp = kin.unit(th), kin.unit_perp(th)
+    e_phi = kin.unit(ph)
+    out = {
+        "F_S_x": F_S[0], "F_S_y": F_S[1], "F_H_x": F_H[0], "F_H_y": F_H[1],
+        "F_CM_x": F_CM[0], "F_CM_y": F_CM[1], "F_R_x": F_R[0], "F_R_y": F_R[1],
+        "torque": N, "P_m": P_m, "P_M": P_M, "P_beam": P_beam,
+        "E_m": E_m - E_m0, "E_M": E_M - E_M0, "E_beam": E_b - E_b0,
+        "x_m": r_m[0], "y_m": r_m[1], "vx_m": v_m[0], "vy_m": v_m[1],
+        "F_N": F_N,
+        "F_M_x": F_H[0], "F_M_y": F_H[1] - e.M * g,
+        "F_m_x": F_S[0], "F_m_y": F_S[1] - e.m * g + F_N,
+        "sling_tension": np.where(held, -kin.dot(F_S, e_phi), 0.0),
+        "torque_hinge": t_hinge, "torque_cm": t_cm, "torque_spigot": t_spigot,
+    }
+    for name, F in (("F_S", F_S), ("F_H", F_H), ("F_CM", F_CM), ("F_R", F_R)):
+        out[f"{name}_par"] = kin.dot(F, e_th)
+        out[f"{name}_perp"] = kin.dot(F, e_perp)
+    for name in ("F_S", "F_H", "F_CM", "F_R", "F_M", "F_m"):
+        out[f"{name}_abs"] = np.hypot(out[f"{name}_x"], out[f"{name}_y"])
+    columns = {name: angles[name].to_numpy() for name in angles.columns}
+    columns.update(out)
+    return pd.DataFrame(columns, index=angles.index)
+
+
+def _ballistic(angles: pd.DataFrame, r_m: np.ndarray, v_m: np.ndarray, held: np.ndarray,
+               free: np.ndarray, g: float, release_state: dict[str, float] | None
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Projectile position and velocity after release: free flight in vacuum from the release
+    state."""
+    t = angles["t"].to_numpy(dtype=float)
+    if release_state is None:
+        before = np.flatnonzero(held)
+        if before.size == 0:
+            raise ValueError("phase-3 rows need a release_state or a phase-2 row before them")
+        i = before[-1]
+        release_state = {"t": t[i], "x": r_m[0, i], "y": r_m[1, i], "vx": v_m[0, i],
+                         "vy": v_m[1, i]}
+    tau = t[free] - release_state["t"]
+    r_m = r_m.copy()
+    v_m = v_m.copy()
+    r_m[0, free] = release_state["x"] + release_state["vx"] * tau
+    r_m[1, free] = release_state["y"] + release_state["vy"] * tau - 0.5 * g * tau * tau
+    v_m[0, free] = release_state["vx"]
+    v_m[1, free] = release_state["vy"] - g * tau
+    return r_m, v_m

@@ -1,0 +1,278 @@
+"""Scenes: which engine is fired, from which pose, and when the projectile is released.
+
+A scene is the TOML file of CONTRACT.md loaded into frozen dataclasses. Every
+value is validated on load; a bad value raises :class:`TrebuchetInputError`
+whose message names the file and the key (``horsdal_large.toml: [engine] L3 =
+-2.45: ...``). Lengths in m, masses in kg, angles in rad inside the code
+(degrees in the file where the key says ``_deg``), times in s.
+
+The engine and its symbols are those of Table 1 of Horsdal, "The swinging
+counterweight trebuchet: on internal forces" (called *the paper* below).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from trebuchet.errors import TrebuchetInputError
+
+__all__ = ["Engine", "Start", "Release", "Scene", "default_moment_of_inertia"]
+
+
+def default_moment_of_inertia(m_b: float, L1: float, L2: float) -> float:
+    """Moment of inertia of a uniform beam about the pivot, kg m².
+
+    ``I = m_b (L1² − L1 L2 + L2²) / 3`` (the paper, Section 2; 7704 kg m² for Table 1).
+    """
+    return m_b * (L1 * L1 - L1 * L2 + L2 * L2) / 3.0
+
+
+@dataclass(frozen=True)
+class Engine:
+    """Lengths (m), masses (kg) and moment of inertia (kg m²) of the engine (paper, Table 1).
+
+    ``L1`` pivot to spigot, ``L2`` pivot to hinge, ``L_CM`` pivot to the beam's
+    centre of mass (positive toward the spigot), ``L3`` hinge to counterweight,
+    ``L4`` sling, ``m_b`` beam, ``M`` counterweight, ``m`` projectile, ``I``
+    beam about the pivot.
+    """
+
+    L1: float
+    L2: float
+    L_CM: float
+    L3: float
+    L4: float
+    m_b: float
+    M: float
+    m: float
+    I: float
+
+    @property
+    def first_moment(self) -> float:
+        """Gravity moment ``M L2 − m_b L_CM`` that drives the beam, kg m (paper, ΔU)."""
+        return self.M * self.L2 - self.m_b * self.L_CM
+
+
+@dataclass(frozen=True)
+class Start:
+    """Pose at rest before the trigger, rad; ``H`` the height of the pivot above the trough, m.
+
+    The paper puts the spigot on the ground at the start, ``H = −L1 sin θ_i``.
+    """
+
+    theta: float
+    psi: float
+    phi: float
+    H: float
+
+
+@dataclass(frozen=True)
+class Release:
+    """When the projectile leaves the sling: at ``time`` (s after the trigger) or when its
+    velocity climbs at ``velocity_angle`` (rad above horizontal), whichever comes first.
+
+    A scene file names exactly one; programs (the FMU's release command) may set both.
+    """
+
+    time: float | None = None
+    velocity_angle: float | None = None
+
+
+@dataclass(frozen=True)
+class Scene:
+    """An engine, its start pose, its release rule and gravity ``g`` (m/s²)."""
+
+    engine: Engine
+    start: Start
+    release: Release
+    g: float = 9.81
+    source: str = field(default="<scene>", compare=False)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Scene:
+        """Load and validate a scene file (CONTRACT.md, "Scene file")."""
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise TrebuchetInputError(f"{path}: scene file not found") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise TrebuchetInputError(f"{path}: cannot read scene file: {exc}") from None
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise TrebuchetInputError(f"{path}: not valid TOML: {exc}") from None
+        return cls.from_dict(data, source=str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<scene>") -> Scene:
+        """Build a scene from the nested dict of a scene file, validating every key."""
+        return _parse_scene(data, source)
+
+    def with_release(self, time: float | None = None,
+                     velocity_angle: float | None = None) -> Scene:
+        """The same scene with another release rule."""
+        return replace(self, release=Release(time=time, velocity_angle=velocity_angle))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scene as the nested dict of a scene file (degrees where the key says so)."""
+        e, s, r = self.engine, self.start, self.release
+        release: dict[str, float] = {}
+        if r.time is not None:
+            release["time"] = r.time
+        if r.velocity_angle is not None:
+            release["velocity_angle_deg"] = math.degrees(r.velocity_angle)
+        return {
+            "engine": {"L1": e.L1, "L2": e.L2, "L_CM": e.L_CM, "L3": e.L3, "L4": e.L4,
+                       "m_b": e.m_b, "M": e.M, "m": e.m, "I": e.I, "H": s.H},
+            "start": {"theta_deg": math.degrees(s.theta), "psi_deg": math.degrees(s.psi),
+                      "phi_deg": math.degrees(s.phi)},
+            "release": release,
+            "environment": {"g": self.g},
+        }
+
+
+# --------------------------------------------------------------------------- parsing
+
+_SECTIONS = {
+    "engine": {"L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m", "I", "H"},
+    "start": {"theta_deg", "psi_deg", "phi_deg", "theta", "psi", "phi"},
+    "release": {"time", "velocity_angle_deg", "velocity_angle"},
+    "environment": {"g"},
+}
+_REQUIRED_ENGINE = ("L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m")
+
+
+class _Reader:
+    """Reads numbers from one scene dict and names file, section and key in every error."""
+
+    def __init__(self, data: dict[str, Any], source: str) -> None:
+        self.data = data
+        self.source = source
+
+    def fail(self, section: str, key: str | None, problem: str) -> TrebuchetInputError:
+        where = f"[{section}] {key}" if key else f"[{section}]"
+        return TrebuchetInputError(f"{self.source}: {where}: {problem}")
+
+    def section(self, name: str, required: bool = True) -> dict[str, Any]:
+        sec = self.data.get(name)
+        if sec is None:
+            if required:
+                raise self.fail(name, None, "missing section")
+            return {}
+        if not isinstance(sec, dict):
+            raise self.fail(name, None, "must be a table of keys")
+        unknown = sorted(set(sec) - _SECTIONS[name])
+        if unknown:
+            raise self.fail(name, unknown[0], "unknown key (known keys: "
+                            + ", ".join(sorted(_SECTIONS[name])) + ")")
+        return sec
+
+    def number(self, section: str, key: str, sec: dict[str, Any]) -> float:
+        value = sec[key]
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.fail(section, key, f"must be a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise self.fail(section, key, f"must be finite, got {value}")
+        return value
+
+    def positive(self, section: str, key: str, sec: dict[str, Any], unit: str) -> float:
+        value = self.number(section, key, sec)
+        if value <= 0.0:
+            raise self.fail(section, key, f"= {value:g}: must be a positive {unit}")
+        return value
+
+    def angle(self, section: str, name: str, sec: dict[str, Any]) -> float | None:
+        """An angle given as ``name_deg`` (degrees) or ``name`` (rad); returns rad or None."""
+        has_deg, has_rad = f"{name}_deg" in sec, name in sec
+        if has_deg and has_rad:
+            raise self.fail(section, name, f"give {name}_deg or {name}, not both")
+        if has_deg:
+            return math.radians(self.number(section, f"{name}_deg", sec))
+        if has_rad:
+            return self.number(section, name, sec)
+        return None
+
+
+def _parse_scene(data: dict[str, Any], source: str) -> Scene:
+    r = _Reader(data, source)
+    unknown = sorted(set(data) - set(_SECTIONS))
+    if unknown:
+        raise TrebuchetInputError(f"{source}: [{unknown[0]}]: unknown section (known sections: "
+                                  + ", ".join(sorted(_SECTIONS)) + ")")
+    eng = r.section("engine")
+    for key in _REQUIRED_ENGINE:
+        if key not in eng:
+            raise r.fail("engine", key, "missing key")
+    L1, L2, L3, L4 = (r.positive("engine", k, eng, "length in m") for k in ("L1", "L2", "L3", "L4"))
+    m_b = r.positive("engine", "m_b", eng, "mass in kg")
+    M = r.positive("engine", "M", eng, "mass in kg")
+    m = r.positive("engine", "m", eng, "mass in kg")
+    L_CM = r.number("engine", "L_CM", eng)
+    if not -L2 <= L_CM <= L1:
+        raise r.fail("engine", "L_CM", f"= {L_CM:g} m puts the centre of mass off the beam "
+                     f"(it must lie between -L2 = {-L2:g} m and L1 = {L1:g} m)")
+    if "I" in eng:
+        I = r.positive("engine", "I", eng, "moment of inertia in kg m²")
+    else:
+        I = default_moment_of_inertia(m_b, L1, L2)
+    if M * L2 <= m_b * L_CM:
+        raise r.fail("engine", "M", f"= {M:g} kg cannot lift the beam: the counterweight's "
+                     f"moment M L2 = {M * L2:g} kg m must exceed the beam's m_b L_CM = "
+                     f"{m_b * L_CM:g} kg m")
+    engine = Engine(L1=L1, L2=L2, L_CM=L_CM, L3=L3, L4=L4, m_b=m_b, M=M, m=m, I=I)
+
+    st = r.section("start")
+    angles = {}
+    for name in ("theta", "psi", "phi"):
+        value = r.angle("start", name, st)
+        if value is None:
+            raise r.fail("start", f"{name}_deg", "missing key")
+        angles[name] = value
+    theta, psi, phi = angles["theta"], angles["psi"], angles["phi"]
+    if not -math.pi / 2 < theta < 0.0:
+        raise r.fail("start", "theta_deg", f"= {math.degrees(theta):g}°: the beam must start "
+                     "between -90° and 0° (spigot low, on the projectile's side)")
+    H = r.positive("engine", "H", eng, "height in m") if "H" in eng else -L1 * math.sin(theta)
+    _check_start_pose(r, engine, theta, phi, H)
+    start = Start(theta=theta, psi=psi, phi=phi, H=H)
+
+    rel = r.section("release")
+    t_rel = r.positive("release", "time", rel, "time in s") if "time" in rel else None
+    angle_rel = r.angle("release", "velocity_angle", rel)
+    if (t_rel is None) == (angle_rel is None):
+        raise r.fail("release", None, "give exactly one of time, velocity_angle_deg")
+    if angle_rel is not None and not 0.0 < angle_rel < math.pi / 2:
+        raise r.fail("release", "velocity_angle_deg", f"= {math.degrees(angle_rel):g}°: must lie "
+                     "strictly between 0° and 90°")
+
+    env = r.section("environment", required=False)
+    g = r.positive("environment", "g", env, "acceleration in m/s²") if "g" in env else 9.81
+    return Scene(engine=engine, start=start, release=Release(t_rel, angle_rel), g=g,
+                 source=source)
+
+
+def _check_start_pose(r: _Reader, e: Engine, theta: float, phi: float, H: float) -> None:
+    """The projectile must lie in the trough (y = 0) at the end of the taut sling."""
+    spigot_y = H + e.L1 * math.sin(theta)
+    if spigot_y < -1e-9 * e.L1:
+        raise r.fail("start", "theta_deg", f"= {math.degrees(theta):g}° puts the spigot "
+                     f"{-spigot_y:.3g} m below ground (pivot height H = {H:g} m)")
+    if spigot_y > e.L4:
+        raise r.fail("engine", "L4", f"= {e.L4:g} m: the sling cannot reach the trough from the "
+                     f"spigot {spigot_y:.3g} m above it")
+    y_m = spigot_y + e.L4 * math.sin(phi)
+    if abs(y_m) > 1e-6 * e.L4:
+        fit = -math.pi + math.asin(spigot_y / e.L4)
+        where = "below ground" if y_m < 0 else "above the trough"
+        raise r.fail("start", "phi_deg", f"= {math.degrees(phi):g}° puts the projectile "
+                     f"{abs(y_m):.3g} m {where}; the sling lies in the trough at "
+                     f"phi_deg = {math.degrees(fit):.6g}")
+    if math.cos(phi) > 0.0:
+        raise r.fail("start", "phi_deg", f"= {math.degrees(phi):g}°: the sling must point away "
+                     "from the throw (between -270° and -90°), under the beam")

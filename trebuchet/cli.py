@@ -1,0 +1,57 @@
+"""The ``trebuchet`` command line.
+
+Each room of the package registers its own sub-commands (``register(sub)`` in
+``trebuchet.model.cli``, ``trebuchet.ingest.cli``, ``trebuchet.fmu.cli``). A
+user's mistake ends with status 2 and one line on stderr that names the file,
+row or key; no traceback, no partial output.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import warnings
+from collections.abc import Sequence
+
+from trebuchet.errors import TrebuchetInputError
+
+ROOMS = ("trebuchet.model.cli", "trebuchet.ingest.cli", "trebuchet.fmu.cli")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="trebuchet",
+        description="Internal forces of the swinging-counterweight trebuchet (Horsdal).")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in ROOMS:
+        try:
+            room = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+            continue
+        room.register(sub)
+    return parser
+
+
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    return f"trebuchet: warning: {message}\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    warnings.formatwarning = _format_warning
+    try:
+        return int(args.run(args) or 0)
+    except TrebuchetInputError as exc:
+        print(f"trebuchet: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("trebuchet: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
