@@ -90,7 +90,7 @@ def resolve(
     names for one target, or several default candidates for one target is a
     :class:`TrebuchetInputError` that lists what the file holds.
     """
-    found = ", ".join(c.label for c in candidates) or "none"
+    found = ", ".join(repr(c.label) for c in candidates) or "none"
     chosen: dict[str, Candidate] = {}
     by_name: dict[str, str] = {}
     for name, target in mapping.items():
