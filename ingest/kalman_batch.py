@@ -1,0 +1,270 @@
+"""Kalman filter, Rauch–Tung–Striebel smoother and jump scores for many series at once.
+
+The filter is the one of filterpy's ``KalmanFilter.batch_filter`` (predict, then
+update, every step) and ``rts_smoother``, written for a scalar measurement of the
+first state component and batched in numpy over ``B`` series that share the time
+steps (several angles, several candidate process noises). A Python loop runs over
+the ``n`` time steps only; each step is a handful of numpy operations on
+``(B, k, k)`` arrays, so the cost hardly grows with ``B``. NOTES ("Differentiating
+video angles"): filterpy runs about 30k samples/s, this about 1M samples/s, and both
+agree to round-off (``tests/test_smooth_kalman.py`` checks it against filterpy).
+
+State of one series: ``[angle, rate, acceleration]`` (``k = 3``, constant
+acceleration, white jerk) or ``[angle, rate, acceleration, jerk]`` (``k = 4``,
+constant jerk, white snap). Units are whatever the caller uses; the smoother in
+:mod:`trebuchet.ingest.smooth` works in frames (time divided by the median frame
+interval) and measurement-noise units (R = 1), which keeps the covariances well
+conditioned.
+
+References
+----------
+- R. E. Kalman (1960), A new approach to linear filtering and prediction problems.
+- H. E. Rauch, F. Tung, C. T. Striebel (1965), Maximum likelihood estimates of linear
+  dynamic systems, AIAA J. 3(8) — the RTS smoother.
+- P. de Jong (1989), Smoothing and interpolation with the state-space model, JASA 84;
+  J. Durbin, S. J. Koopman (2012), Time Series Analysis by State Space Methods, 2nd ed.,
+  §4.4 and §7.5 — the backward recursion ``r, N`` used for the jump (intervention) scores.
+- R. Labbe, filterpy 2.0.0, ``Q_continuous_white_noise`` (the discretised process noise).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import factorial
+
+import numpy as np
+
+
+def polynomial_transition(k: int, dt: np.ndarray) -> np.ndarray:
+    """Transition matrices ``F(dt)`` of a ``k``-state polynomial (Taylor) model.
+
+    ``F[i, j] = dt**(j - i) / (j - i)!`` for ``j >= i``. ``dt`` in the caller's time
+    unit, shape ``(n,)``; returns ``(n, k, k)``.
+    """
+    dt = np.asarray(dt, dtype=float)
+    F = np.zeros(dt.shape + (k, k))
+    for i in range(k):
+        for j in range(i, k):
+            F[..., i, j] = dt ** (j - i) / factorial(j - i)
+    return F
+
+
+def white_noise_covariance(k: int, dt: np.ndarray) -> np.ndarray:
+    """Exact discretised covariance of white noise (unit spectral density) on the last state.
+
+    Identical to filterpy's ``Q_continuous_white_noise(k, dt, 1.0)`` (k = 2, 3, 4), for an
+    array of ``dt``: ``Q[i, j] = dt**(2k-1-i-j) / ((k-1-i)! (k-1-j)! (2k-1-i-j))``.
+    Returns ``(n, k, k)``; multiply by the spectral density ``q`` (rad²/s⁵ for k = 3).
+    """
+    dt = np.asarray(dt, dtype=float)
+    Q = np.empty(dt.shape + (k, k))
+    for i in range(k):
+        for j in range(k):
+            a, b = k - 1 - i, k - 1 - j
+            p = a + b + 1
+            Q[..., i, j] = dt**p / (factorial(a) * factorial(b) * p)
+    return Q
+
+
+@dataclass(frozen=True)
+class StepModel:
+    """Per-step matrices shared by all series of a batch (``n`` steps, ``k`` states).
+
+    Step ``i`` predicts from the time of frame ``i-1`` to frame ``i`` (step 0 is the prior
+    at frame 0: ``F[0] = I``, ``Q0[0] = 0``). Process noise of series ``b`` at step ``i`` is
+    ``lam[b] * Q0[i] + kick[b] * G[i]``: ``Q0`` the unit white-noise covariance (zero
+    at rest), ``G`` the unit covariance of a jump (a "kick") in acceleration at an event
+    between the frames, carried to frame ``i``.
+    """
+
+    F: np.ndarray  # (n, k, k)
+    Q0: np.ndarray  # (n, k, k)
+    G: np.ndarray  # (n, k, k)
+
+    @property
+    def n(self) -> int:
+        return self.F.shape[0]
+
+    @property
+    def k(self) -> int:
+        return self.F.shape[-1]
+
+
+@dataclass(frozen=True)
+class FilterResult:
+    """Output of :func:`batch_kalman_filter`, histories indexed ``[step, series, ...]``.
+
+    ``S`` the innovation variance and ``nu`` the innovation (0 at gaps) at every step;
+    with ``store=True`` also ``xp``/``Pp`` (state and covariance after the prediction)
+    and ``gain`` (Kalman gain, zero at gaps), which :func:`backward_smoother` needs.
+    """
+
+    S: np.ndarray
+    nu: np.ndarray
+    xp: np.ndarray | None = None
+    Pp: np.ndarray | None = None
+    gain: np.ndarray | None = None
+
+    def loglik_sums(self, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``Σ w log S``, ``Σ w ν²/S`` and ``Σ w`` per series; ``weight`` (B, n), 0 at gaps."""
+        w = np.asarray(weight, float).T
+        return (
+            (w * np.log(self.S)).sum(axis=0),
+            (w * self.nu**2 / self.S).sum(axis=0),
+            w.sum(axis=0),
+        )
+
+
+def _kron_transposed(F: np.ndarray) -> np.ndarray:
+    """``(F ⊗ F)ᵀ`` per step: ``vec(F P Fᵀ) = vec(P) @ (F ⊗ F)ᵀ`` for row-major ``vec``."""
+    n, k, _ = F.shape
+    kr = np.einsum("nai,nbj->nabij", F, F).reshape(n, k * k, k * k)
+    return np.ascontiguousarray(np.swapaxes(kr, 1, 2))
+
+
+def batch_kalman_filter(
+    z: np.ndarray,
+    valid: np.ndarray,
+    steps: StepModel,
+    lam: np.ndarray,
+    kick: np.ndarray,
+    r2: np.ndarray,
+    x0: np.ndarray,
+    P0: np.ndarray,
+    store: bool = False,
+) -> FilterResult:
+    """Kalman filter (predict then update each step) for ``B`` scalar series at once.
+
+    Parameters
+    ----------
+    z : (B, n) measurements of the first state; values where ``valid`` is False are ignored.
+    valid : (B, n) bool, False for a gap (predict through, no update).
+    steps : per-step matrices, see :class:`StepModel`.
+    lam, kick, r2 : (B,) process-noise density, kick variance, measurement variance.
+    x0, P0 : (B, k), (B, k, k) prior at frame 0, before the step-0 prediction.
+    store : keep the histories needed by :func:`backward_smoother`.
+
+    Covariances are carried flattened, ``F P Fᵀ`` as one product with ``F ⊗ F``. The
+    update is the simple form ``P = Pp - K H Pp`` (filterpy: Joseph form, equal in exact
+    arithmetic; they differ by round-off, ~1e-9 of the largest variance near a kick).
+    """
+    B, n = z.shape
+    k = steps.k
+    kk = k * k
+    valid = np.asarray(valid, dtype=bool)
+    zz = np.where(valid, z, 0.0)
+    r2 = np.broadcast_to(np.asarray(r2, float), (B,))
+    lam_c = np.asarray(lam, float)[:, None]
+    kick_c = np.asarray(kick, float)[:, None]
+    FT = np.ascontiguousarray(np.swapaxes(steps.F, 1, 2))
+    KrT = _kron_transposed(steps.F)
+    Q0 = steps.Q0.reshape(n, kk)
+    G = steps.G.reshape(n, kk)
+    has_q = np.any(Q0 != 0.0, axis=1) & np.any(lam_c != 0.0)
+    has_kick = np.any(G != 0.0, axis=1) & np.any(kick_c != 0.0)
+    is_identity = np.all(steps.F == np.eye(k), axis=(1, 2))
+    any_valid = valid.any(axis=0)
+    all_valid = valid.all(axis=0)
+
+    x = np.array(x0, dtype=float)
+    P = np.array(P0, dtype=float).reshape(B, kk)
+    S_hist = np.empty((n, B))
+    nu_hist = np.zeros((n, B))
+    if store:
+        xps = np.empty((n, B, k))
+        Pps = np.empty((n, B, kk))
+        gains = np.zeros((n, B, k))
+    for i in range(n):
+        if not is_identity[i]:
+            x = x @ FT[i]
+            P = P @ KrT[i]
+        if has_q[i]:
+            P = P + lam_c * Q0[i]
+        if has_kick[i]:
+            P = P + kick_c * G[i]
+        PH = P[:, :k]
+        S = PH[:, 0] + r2
+        S_hist[i] = S
+        if store:
+            xps[i] = x
+            Pps[i] = P
+        if any_valid[i]:
+            nu = zz[:, i] - x[:, 0]
+            if all_valid[i]:
+                K = PH / S[:, None]
+            else:
+                w = valid[:, i]
+                nu = nu * w
+                K = PH * (w / S)[:, None]
+            x = x + K * nu[:, None]
+            P = P - (K[:, :, None] * PH[:, None, :]).reshape(B, kk)
+            nu_hist[i] = nu
+            if store:
+                gains[i] = K
+    if not store:
+        return FilterResult(S_hist, nu_hist)
+    return FilterResult(S_hist, nu_hist, xps, Pps.reshape(n, B, k, k), gains)
+
+
+@dataclass(frozen=True)
+class SmootherResult:
+    """Output of :func:`backward_smoother`, indexed ``[step, series, ...]``.
+
+    ``x``, ``P``: smoothed state and covariance. ``r``, ``N``: for a jump ``d·Δ`` added to
+    the state at step ``i`` (between frames ``i-1`` and ``i``, ``d`` in the state at frame
+    ``i``) the score is ``d·r[i]`` and the information ``dᵀ N[i] d``: the maximum-
+    likelihood jump is ``Δ = d·r / dᵀNd``, and ``(d·r)² / dᵀNd`` the likelihood-ratio
+    statistic (χ², 1 degree of freedom per series, when there is no jump).
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+    r: np.ndarray
+    N: np.ndarray
+
+
+def backward_smoother(steps: StepModel, filt: FilterResult, valid: np.ndarray) -> SmootherResult:
+    """Fixed-interval smoother in the Bryson–Frazier form, with jump scores.
+
+    Backward recursion (Durbin & Koopman 2012, §4.4, their ``r_{t-1}, N_{t-1}``; de Jong
+    1989): ``r_{i-1} = Hᵀ ν_i / S_i + L_iᵀ r_i``, ``N_{i-1} = Hᵀ H / S_i + L_iᵀ N_i L_i``
+    with ``L_i = F_{i+1} (I - K_i H)``; then ``x^s_i = xp_i + Pp_i r_{i-1}`` and
+    ``P^s_i = Pp_i - Pp_i N_{i-1} Pp_i``. Equal to the Rauch–Tung–Striebel smoother
+    (filterpy's ``rts_smoother``; tests compare them) but with no matrix inverse, so the
+    singular covariances at rest need no special care, and the same ``r, N`` give the
+    jump statistics used to find the release.
+    """
+    n, B, k = filt.xp.shape
+    kk = k * k
+    valid = np.asarray(valid, dtype=bool)
+    KrT = _kron_transposed(steps.F)
+    r = np.zeros((B, k))
+    N = np.zeros((B, k, k))
+    rs = np.empty((n, B, k))
+    Ns = np.empty((n, B, k, k))
+    inv_S = np.where(valid.T, 1.0 / filt.S, 0.0)
+    nu_S = filt.nu * inv_S
+    for i in range(n - 1, -1, -1):
+        if i < n - 1:
+            # L = F - (F K) e1ᵀ:  Lᵀ r = Fᵀr - e1 Kᵀ(Fᵀ r);  with M = Fᵀ N F:
+            # Lᵀ N L = M - (M K) e1ᵀ - e1 (M K)ᵀ + (Kᵀ M K) e1 e1ᵀ
+            Fn = steps.F[i + 1]
+            K = filt.gain[i]
+            u = r @ Fn
+            u[:, 0] -= np.einsum("bi,bi->b", K, u)
+            r = u
+            M = (N.reshape(B, kk) @ KrT[i + 1].T).reshape(B, k, k)
+            MK = np.einsum("bij,bj->bi", M, K)
+            c = np.einsum("bi,bi->b", K, MK)
+            M[:, :, 0] -= MK
+            M[:, 0, :] -= MK
+            M[:, 0, 0] += c
+            N = M
+        r[:, 0] += nu_S[i]
+        N[:, 0, 0] += inv_S[i]
+        rs[i] = r
+        Ns[i] = N
+    Pp = filt.Pp
+    xs = filt.xp + np.einsum("nbij,nbj->nbi", Pp, rs)
+    Ps = Pp - Pp @ Ns @ Pp
+    return SmootherResult(xs, Ps, rs, Ns)

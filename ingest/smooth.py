@@ -1,0 +1,510 @@
+"""Angles, their rates and accelerations, with standard deviations, from a noisy log.
+
+``smooth(log)`` runs, per angle, a Kalman filter and Rauch–Tung–Striebel smoother
+(Rauch, Tung & Striebel 1965) of a constant-acceleration model (white jerk; ``model="cj"``:
+constant jerk, white snap) with the exact discretised process noise for each frame's own
+time step (filterpy's ``Q_continuous_white_noise``), and:
+
+- the angles rest before the trigger (no process noise, zero rate and acceleration) and
+  the acceleration may jump at the trigger and at the release (a wide "kick" in the
+  acceleration at the event's time, between frames);
+- the process noise ``q`` is the maximum of the innovation likelihood with the
+  measurement noise ``r`` profiled out (:mod:`~trebuchet.ingest.noise_tuning`), either
+  may be given instead;
+- trigger and release are found in the data (:mod:`~trebuchet.ingest.events`) unless
+  given;
+- gaps (NaN) are predicted through; outside an angle's track (before its first or after
+  its last valid frame) the outputs are NaN, not extrapolated (``attrs["notes"]`` says so).
+
+The numerics are the batched numpy filter of :mod:`~trebuchet.ingest.kalman_batch`
+(about 30× faster than filterpy, equal to round-off; ``backend="filterpy"`` runs the final
+pass through filterpy's ``KalmanFilter.batch_filter`` and ``rts_smoother`` instead).
+Measured accuracy and speed: ``bench/smooth_accuracy.py``; NOTES, "Differentiating video
+angles (filterpy 2.0.0)".
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+
+from .events import (
+    ReleaseSearch,
+    TriggerSearch,
+    detect_release,
+    detect_trigger,
+    release_statistic,
+    robust_noise_sd,
+)
+from .kalman_batch import (
+    StepModel,
+    backward_smoother,
+    batch_kalman_filter,
+    polynomial_transition,
+    white_noise_covariance,
+)
+from .noise_tuning import NoiseEstimate, NoiseSearch, lambda_grid, maximum_likelihood_noise
+
+ANGLES: tuple[str, ...] = ("theta", "psi", "phi")
+MODEL_STATES: dict[str, int] = {"ca": 3, "cj": 4}
+SUFFIXES: tuple[str, ...] = ("", "_d", "_dd")
+
+
+@dataclass(frozen=True)
+class SmoothSettings:
+    """Settings of :func:`smooth` that users rarely change.
+
+    ``kick_scale``: sd of the acceleration jump allowed at an event, as a multiple of
+    ``excursion / duration²`` of the angle (wide: about 10× a typical peak).
+    ``jerk_kick_time`` (s): for ``model="cj"`` the jerk kick sd is the acceleration kick
+    sd divided by this. ``min_frames``: fewest valid frames an angle's track may have.
+    ``retune_after_release``: re-run the noise search near its optimum once a release
+    was found (the jump inflates ``q`` otherwise).
+    """
+
+    noise: NoiseSearch = field(default_factory=NoiseSearch)
+    trigger: TriggerSearch = field(default_factory=TriggerSearch)
+    release: ReleaseSearch = field(default_factory=ReleaseSearch)
+    kick_scale: float = 50.0
+    jerk_kick_time: float = 0.05
+    min_frames: int = 10
+    retune_after_release: bool = True
+
+
+# ----------------------------------------------------------------------------- input
+
+
+def validated_log(log: pd.DataFrame, min_frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """Time (n,) and angles (3, n) from ``log``; raises :class:`TrebuchetInputError`.
+
+    Checks: a DataFrame with ``t``, ``theta``, ``psi``, ``phi``; numeric; ``t`` finite and
+    strictly increasing; angles finite or NaN (a gap); each angle either untracked (all
+    NaN) or with at least ``min_frames`` valid frames; at least one tracked.
+    """
+    if not isinstance(log, pd.DataFrame):
+        raise TrebuchetInputError(f"smooth: expected a pandas DataFrame, got {type(log).__name__}")
+    for col in ("t", *ANGLES):
+        if col not in log.columns:
+            raise TrebuchetInputError(f"smooth: the log has no column '{col}'")
+    n = len(log)
+    if n < min_frames:
+        raise TrebuchetInputError(
+            f"smooth: the log has {n} rows; smoothing needs at least {min_frames} frames"
+        )
+    arrays = {}
+    for col in ("t", *ANGLES):
+        try:
+            arrays[col] = log[col].to_numpy(dtype=float, na_value=np.nan)
+        except (TypeError, ValueError) as exc:
+            raise TrebuchetInputError(f"smooth: column '{col}' is not numeric ({exc})") from None
+    t = arrays["t"]
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise TrebuchetInputError(f"smooth: column 't', row {bad[0]}: time is {t[bad[0]]}")
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise TrebuchetInputError(
+            f"smooth: column 't', row {i}: time {t[i]:g} s does not increase "
+            f"(row {i - 1} has {t[i - 1]:g} s)"
+        )
+    Z = np.vstack([arrays[a] for a in ANGLES])
+    for a, name in enumerate(ANGLES):
+        bad = np.flatnonzero(np.isinf(Z[a]))
+        if bad.size:
+            raise TrebuchetInputError(f"smooth: column '{name}', row {bad[0]}: value is infinite")
+        nv = int(np.isfinite(Z[a]).sum())
+        if 0 < nv < min_frames:
+            raise TrebuchetInputError(
+                f"smooth: column '{name}' has {nv} valid frames; at least {min_frames} needed"
+            )
+    if not np.isfinite(Z).any():
+        raise TrebuchetInputError("smooth: columns theta, psi and phi are all empty")
+    return t, Z
+
+
+def unwrapped_angles(Z: np.ndarray) -> np.ndarray:
+    """Angles with jumps of more than π between valid frames unwrapped (warns if any)."""
+    Z = Z.copy()
+    for a, name in enumerate(ANGLES):
+        ok = np.isfinite(Z[a])
+        if ok.sum() > 1 and np.any(np.abs(np.diff(Z[a][ok])) > np.pi):
+            Z[a][ok] = np.unwrap(Z[a][ok])
+            warnings.warn(
+                f"smooth: column '{name}' jumps by more than π between frames; unwrapped",
+                TrebuchetDataWarning,
+                stacklevel=3,
+            )
+    return Z
+
+
+def _per_angle(value, name: str, tracked: list[str]) -> dict[str, float]:
+    """``q`` or ``r`` as a positive float per angle (NaN: to be estimated)."""
+    if value is None:
+        return {a: np.nan for a in tracked}
+    if isinstance(value, Mapping):
+        unknown = set(value) - set(ANGLES)
+        if unknown:
+            raise TrebuchetInputError(f"smooth: {name} has unknown angle(s) {sorted(unknown)}")
+        vals = {a: (np.nan if value.get(a) is None else value[a]) for a in tracked}
+    else:
+        vals = {a: value for a in tracked}
+    out = {}
+    for a, v in vals.items():
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise TrebuchetInputError(f"smooth: {name}['{a}'] = {v!r} is not a number") from None
+        if not (np.isnan(v) or (np.isfinite(v) and v > 0)):
+            raise TrebuchetInputError(f"smooth: {name}['{a}'] = {v!r} must be positive")
+        out[a] = v
+    return out
+
+
+def _event_overrides(events, t: np.ndarray) -> dict[str, float | None]:
+    """Given events (log time, s): key present = given (None = no such event)."""
+    if events is None:
+        return {}
+    if not isinstance(events, Mapping):
+        raise TrebuchetInputError("smooth: events must be a dict like {'trigger': t, 'release': t}")
+    out: dict[str, float | None] = {}
+    for key, v in events.items():
+        if key not in ("trigger", "release", "lift_off"):
+            raise TrebuchetInputError(f"smooth: unknown event '{key}' in events")
+        if v is None:
+            out[key] = None
+            continue
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise TrebuchetInputError(f"smooth: events['{key}'] = {v!r} is not a time") from None
+        if not (t[0] <= v <= t[-1]):
+            raise TrebuchetInputError(
+                f"smooth: events['{key}'] = {v:g} s lies outside the log ({t[0]:g}–{t[-1]:g} s)"
+            )
+        out[key] = v
+    trig, rel = out.get("trigger"), out.get("release")
+    if trig is not None and rel is not None and rel <= trig:
+        raise TrebuchetInputError(
+            f"smooth: events['release'] = {rel:g} s is not after the trigger ({trig:g} s)"
+        )
+    return out
+
+
+# ----------------------------------------------------------------------------- model
+
+
+def event_step_model(
+    ts: np.ndarray,
+    k: int,
+    trigger: float | None,
+    release: float | None,
+    jerk_kick_time: float,
+) -> tuple[StepModel, int]:
+    """Per-frame transition, process noise and event kicks (smoother time unit).
+
+    Rest (no process noise) up to ``trigger``; at ``trigger`` and ``release`` (between
+    frames) a unit kick in acceleration (and jerk, sd ``1/jerk_kick_time`` per unit, for
+    ``k = 4``) carried to the next frame by ``F(δ)``, and the white noise split at the
+    event, ``F(δ) W(δ_before) F(δ)ᵀ + W(δ)``. Returns the model and the first frame index
+    after the trigger (0 without a trigger).
+    """
+    n = ts.size
+    dt = np.diff(ts, prepend=ts[0])
+    F = polynomial_transition(k, dt)
+    F[0] = np.eye(k)
+    Q0 = white_noise_covariance(k, dt)
+    Q0[0] = 0.0
+    G = np.zeros_like(F)
+    kick = np.zeros((k, k))
+    kick[2, 2] = 1.0
+    if k == 4:
+        kick[3, 3] = 1.0 / jerk_kick_time**2
+    start = 0
+    if trigger is not None:
+        i = int(np.searchsorted(ts, trigger, side="right"))
+        start = i
+        Q0[:i] = 0.0
+        if 0 < i < n:
+            delta = ts[i] - trigger
+            Fd = polynomial_transition(k, np.array([delta]))[0]
+            Q0[i] = white_noise_covariance(k, np.array([delta]))[0]
+            G[i] += Fd @ kick @ Fd.T
+    if release is not None:
+        j = int(np.searchsorted(ts, release, side="right"))
+        if 0 < j < n:
+            delta = ts[j] - release
+            before = release - ts[j - 1]
+            Fd = polynomial_transition(k, np.array([delta]))[0]
+            W = white_noise_covariance(k, np.array([delta, before]))
+            Q0[j] = W[0] + (Fd @ W[1] @ Fd.T if j > start else 0.0)
+            G[j] += Fd @ kick @ Fd.T
+    return StepModel(F, Q0, G), start
+
+
+def _priors(
+    Z: np.ndarray, sd: np.ndarray, k: int, rest: bool, acc_sd: np.ndarray, rate_sd: np.ndarray,
+    jerk_sd: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Prior state and covariance at frame 0, and likelihood weights (first innovations out)."""
+    A, n = Z.shape
+    x0 = np.zeros((A, k))
+    P0 = np.zeros((A, k, k))
+    weight = np.isfinite(Z).astype(float)
+    for a in range(A):
+        ok = np.flatnonzero(np.isfinite(Z[a]))
+        x0[a, 0] = Z[a, ok[0]]
+        P0[a, 0, 0] = 100.0 * sd[a] ** 2
+        n_diffuse = 1
+        if not rest:
+            P0[a, 1, 1] = rate_sd[a] ** 2
+            P0[a, 2, 2] = acc_sd[a] ** 2
+            if k == 4:
+                P0[a, 3, 3] = jerk_sd[a] ** 2
+            n_diffuse = k
+        weight[a, ok[:n_diffuse]] = 0.0
+    return x0, P0, weight
+
+
+# ----------------------------------------------------------------------------- main
+
+
+def smooth(
+    log: pd.DataFrame,
+    *,
+    model: str = "ca",
+    q: float | Mapping[str, float] | None = None,
+    r: float | Mapping[str, float] | None = None,
+    events: Mapping[str, float | None] | None = None,
+    backend: str = "numpy",
+    settings: SmoothSettings | None = None,
+) -> pd.DataFrame:
+    """Smoothed angles (rad), rates (rad/s), accelerations (rad/s²) and their sd.
+
+    Parameters
+    ----------
+    log : DataFrame with ``t`` (s, strictly increasing) and ``theta``, ``psi``, ``phi``
+        (rad; NaN = gap; an all-NaN column = angle not tracked).
+    model : ``"ca"`` constant acceleration (white jerk) or ``"cj"`` constant jerk.
+    q : process-noise spectral density (rad²/s⁵ for ``ca``, rad²/s⁷ for ``cj``), a number
+        or ``{angle: number}``; default: maximum likelihood.
+    r : measurement-noise sd (rad), number or per angle; default: maximum likelihood.
+    events : ``{"trigger": t, "release": t}`` in the log's time (s); a key present
+        overrides detection (``None``: no such event), an absent key is detected.
+    backend : ``"numpy"`` (batched, default) or ``"filterpy"`` (final pass via filterpy).
+    settings : :class:`SmoothSettings`.
+
+    Returns
+    -------
+    DataFrame with the log's rows and ``t``, and for each angle ``X`` in theta, psi, phi:
+    ``X``, ``X_d``, ``X_dd`` and ``X_sd``, ``X_d_sd``, ``X_dd_sd``. ``attrs``:
+    ``events`` ({"trigger", "release"}: log time or None), ``event_sources``, ``noise``
+    ({angle: {"q", "r_sd", "q_ml", "loglik", "source", "at_grid_edge"}}), ``cov``
+    ({angle: (n, k, k) smoothed covariance of [angle, rate, acceleration(, jerk)] in SI,
+    NaN outside the track}), ``model``, ``loglik`` (sum over angles), ``notes``.
+
+    Raises
+    ------
+    TrebuchetInputError : missing column, too few frames, time not increasing, bad
+        ``q``/``r``/``events``; the message names the column and row.
+    """
+    settings = settings or SmoothSettings()
+    if model not in MODEL_STATES:
+        raise TrebuchetInputError(f"smooth: model must be 'ca' or 'cj', not {model!r}")
+    if backend not in ("numpy", "filterpy"):
+        raise TrebuchetInputError(f"smooth: backend must be 'numpy' or 'filterpy', not {backend!r}")
+    k = MODEL_STATES[model]
+    t, Z_all = validated_log(log, settings.min_frames)
+    Z_all = unwrapped_angles(Z_all)
+    tracked = [a for i, a in enumerate(ANGLES) if np.isfinite(Z_all[i]).any()]
+    idx = [ANGLES.index(a) for a in tracked]
+    Z = Z_all[idx]
+    valid = np.isfinite(Z)
+    q_in = _per_angle(q, "q", tracked)
+    r_in = _per_angle(r, "r", tracked)
+    given = _event_overrides(events, t)
+    notes: list[str] = []
+    for a in ANGLES:
+        if a not in tracked:
+            notes.append(f"{a}: not tracked (all NaN); its columns are NaN")
+
+    n = t.size
+    tau = float(np.median(np.diff(t)))
+    ts = (t - t[0]) / tau
+    sd = np.array([robust_noise_sd(t, z) for z in Z])
+    sd = np.where(np.isfinite(sd) & (sd > 0), sd, np.nan)
+    fallback = 1e-3 * np.array([np.nanmax(z) - np.nanmin(z) for z in Z])
+    sd = np.where(np.isfinite(sd), sd, np.maximum(fallback, 1e-9))
+    for a, name in enumerate(tracked):
+        if np.isfinite(r_in[name]):
+            sd[a] = r_in[name]
+
+    # trigger
+    sources: dict[str, str] = {}
+    if "trigger" in given:
+        trigger = given["trigger"]
+        sources["trigger"] = "given"
+    else:
+        trigger = detect_trigger(t, Z, sd, settings.trigger)
+        sources["trigger"] = "detected" if trigger is not None else "no rest found at the start"
+    rest = trigger is not None
+    trig_s = None if trigger is None else (trigger - t[0]) / tau
+
+    # scales of the kicks and diffuse priors
+    excursion = np.array([np.nanmax(z) - np.nanmin(z) for z in Z])
+    excursion = np.maximum(excursion, 10 * sd)
+    duration = max(t[-1] - (trigger if trigger is not None else t[0]), 2 * tau)
+    acc_sd = settings.kick_scale * excursion / duration**2 * tau**2
+    rate_sd = 10.0 * excursion / duration * tau
+    jerk_time = settings.jerk_kick_time / tau
+    jerk_sd = acc_sd / jerk_time
+    x0, P0, weight = _priors(Z, sd, k, rest, acc_sd, rate_sd, jerk_sd)
+    kick = acc_sd**2
+
+    A = len(tracked)
+    r2_given = np.array([r_in[a] ** 2 for a in tracked])
+    q_given = np.array([q_in[a] for a in tracked]) * tau ** (2 * k - 1)
+    r2_ref = sd**2
+    grid = lambda_grid(k, tau, t[-1] - t[0], settings.noise)
+
+    release = given.get("release")
+    rel_s = None if release is None else (release - t[0]) / tau
+    steps, start = event_step_model(ts, k, trig_s, rel_s, jerk_time)
+
+    def tune(steps: StepModel, grid: np.ndarray) -> list[NoiseEstimate]:
+        need = [a for a in range(A) if not (np.isfinite(q_given[a]) and np.isfinite(r2_given[a]))]
+        est: list[NoiseEstimate | None] = [None] * A
+        for a in range(A):
+            if a not in need:
+                lam = q_given[a] / r2_given[a]
+                est[a] = NoiseEstimate(lam, lam, float(r2_given[a]), np.nan, False)
+        if need:
+            found = maximum_likelihood_noise(
+                Z[need], valid[need], weight[need], steps, grid, r2_ref[need], kick[need],
+                x0[need], P0[need], r2_given[need], q_given[need], settings.noise,
+            )
+            for a, e in zip(need, found, strict=True):
+                est[a] = e
+        return est  # type: ignore[return-value]
+
+    def final_pass(steps: StepModel, est: list[NoiseEstimate]):
+        lam = np.array([e.lam for e in est])
+        r2 = np.array([e.r2 for e in est])
+        filt = batch_kalman_filter(Z, valid, steps, lam * r2, kick, r2, x0, P0, store=True)
+        return filt, backward_smoother(steps, filt, valid)
+
+    est = tune(steps, grid)
+    filt, sm = final_pass(steps, est)
+
+    if "release" in given:
+        sources["release"] = "given" if release is not None else "given as none"
+    else:
+        stat, when = release_statistic(ts, sm.r, sm.N, settings.release.subframe_positions)
+        sling_end = None
+        if "phi" in tracked:
+            last = {a: np.flatnonzero(valid[i])[-1] for i, a in enumerate(tracked)}
+            others = [last[a] for a in tracked if a != "phi"]
+            if others and max(others) - last["phi"] >= 3:
+                sling_end = int(last["phi"])
+        rel_s, how = detect_release(ts, stat, when, start, sling_end, settings.release)
+        sources["release"] = how
+        if rel_s is not None:
+            release = float(t[0] + rel_s * tau)
+            steps, start = event_step_model(ts, k, trig_s, rel_s, jerk_time)
+            if settings.retune_after_release:
+                lam_ml = np.array([e.lam_ml for e in est])
+                step = settings.noise.log10_step / 2
+                local = 10.0 ** (np.log10(np.median(lam_ml)) + step * np.arange(-6, 7))
+                local = np.unique(np.concatenate([local, grid]))
+                local = local[(local > lam_ml.min() / 30) & (local < lam_ml.max() * 30)]
+                est = tune(steps, 10.0 ** np.linspace(
+                    np.log10(local.min()), np.log10(local.max()),
+                    int(round(np.log10(local.max() / local.min()) / step)) + 1))
+            filt, sm = final_pass(steps, est)
+
+    xs, Ps = sm.x, sm.P
+    if backend == "filterpy":
+        from .kalman_filterpy import filterpy_filter_smoother
+
+        xs = np.empty_like(sm.x)
+        Ps = np.empty_like(sm.P)
+        for a, e in enumerate(est):
+            res = filterpy_filter_smoother(
+                Z[a], valid[a], steps, e.lam * e.r2, kick[a], e.r2, x0[a], P0[a]
+            )
+            xs[:, a] = res["xs"]
+            Ps[:, a] = res["Ps"]
+
+    # back to SI
+    scale = tau ** -np.arange(k)
+    xs = xs * scale
+    Ps = Ps * scale[:, None] * scale[None, :]
+    out = pd.DataFrame({"t": t}, index=log.index)
+    cov = {}
+    noise = {}
+    loglik = 0.0
+    for name in ANGLES:
+        cols = {}
+        if name in tracked:
+            a = tracked.index(name)
+            ok = np.flatnonzero(valid[a])
+            inside = np.zeros(n, bool)
+            inside[ok[0] : ok[-1] + 1] = True
+            if ok[-1] < n - 1:
+                notes.append(
+                    f"{name}: track ends at t = {t[ok[-1]]:g} s; "
+                    "later rows are NaN (not extrapolated)"
+                )
+            if ok[0] > 0:
+                notes.append(f"{name}: track starts at t = {t[ok[0]]:g} s; earlier rows are NaN")
+            var = np.diagonal(Ps[:, a], axis1=1, axis2=2)
+            for j, suf in enumerate(SUFFIXES):
+                cols[name + suf] = np.where(inside, xs[:, a, j], np.nan)
+                sd_j = np.sqrt(np.maximum(var[:, j], 0.0))
+                cols[name + suf + "_sd"] = np.where(inside, sd_j, np.nan)
+            c = Ps[:, a].copy()
+            c[~inside] = np.nan
+            cov[name] = c
+            e = est[a]
+            q_si = e.lam * e.r2 / tau ** (2 * k - 1)
+            noise[name] = {
+                "q": q_si,
+                "r_sd": float(np.sqrt(e.r2)),
+                "q_ml": e.lam_ml * e.r2 / tau ** (2 * k - 1),
+                "loglik": e.loglik,
+                "source": "given" if np.isfinite(q_given[a]) and np.isfinite(r2_given[a])
+                else "maximum likelihood",
+                "at_grid_edge": e.at_edge,
+            }
+            if e.at_edge:
+                notes.append(f"{name}: the likelihood maximum lies on the edge of the q grid")
+            if np.isfinite(e.loglik):
+                loglik += e.loglik
+        else:
+            for suf in SUFFIXES:
+                cols[name + suf] = np.full(n, np.nan)
+                cols[name + suf + "_sd"] = np.full(n, np.nan)
+        for key, v in cols.items():
+            out[key] = v
+    order = ["t"] + [a + s for a in ANGLES for s in SUFFIXES] + [
+        a + s + "_sd" for a in ANGLES for s in SUFFIXES
+    ]
+    extra = [c for c in out.columns if c not in order]
+    out = out[order + extra]
+    out.attrs["events"] = {"trigger": trigger, "release": release}
+    if "lift_off" in given:
+        out.attrs["events"]["lift_off"] = given["lift_off"]
+    out.attrs["event_sources"] = sources
+    out.attrs["noise"] = noise
+    out.attrs["cov"] = cov
+    out.attrs["model"] = model
+    out.attrs["loglik"] = loglik
+    out.attrs["notes"] = notes
+    return out
