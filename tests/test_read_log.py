@@ -184,8 +184,9 @@ def test_tracker_point_masses_give_angles_with_points(tmp_path):
 
 
 def test_kinovea_quoted_semicolon_file_with_fps_gives_exact_frame_times():
-    with pytest.warns(TrebuchetDataWarning, match="rounded to 1 ms"):
+    with pytest.warns(TrebuchetDataWarning) as record:
         df = read_log(LOGS / "kinovea_semicolon.csv", fps=FPS, points=KINOVEA_POINTS)
+    assert any("rounded to 1 ms" in str(w.message) for w in record)
     assert df.attrs["format"] == "kinovea"
     np.testing.assert_allclose(df["t"], K / FPS, rtol=0, atol=1e-15)
     # coordinates written with 4 decimals (0.1 mm) on arms of 2.45 m and more
@@ -333,3 +334,22 @@ def test_missing_point_is_named_with_the_angle_that_needs_it(tmp_path):
         read_log(p, points={"counterweight": "W"})
     msg = str(err.value)
     assert "four.csv" in msg and "phi" in msg and "projectile" in msg and "'W/cw'" in msg
+
+
+def test_attrs_hold_plain_values_so_logs_can_be_concatenated():
+    df = quiet_read(LOGS / "deeplabcut.csv", fps=FPS)
+    both = pd.concat([df, df.copy()])  # pandas compares attrs: arrays there would raise
+    assert len(both) == 2 * len(df)
+    assert both.attrs["format"] == "deeplabcut"
+
+
+def test_tracker_space_delimited_with_frame_numbers_and_a_utf8_bom(tmp_path):
+    lines = ["#multi:", " theta psi phi ", "frame θ θ θ "]
+    lines += [f"{k + 7} {math.degrees(THETA[k])} {math.degrees(PSI[k])} {math.degrees(PHI[k])} "
+              for k in K]
+    p = tmp_path / "space.txt"
+    p.write_bytes(b"\xef\xbb\xbf" + ("\n".join(lines) + "\n").encode())
+    df = read_log(p, fps=FPS)
+    assert df.attrs["format"] == "tracker"
+    np.testing.assert_allclose(df["t"], (K + 7) / FPS, atol=1e-15)
+    np.testing.assert_allclose(df["psi"], PSI, atol=1e-12)
