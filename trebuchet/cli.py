@@ -16,7 +16,13 @@ from collections.abc import Sequence
 
 from trebuchet.errors import TrebuchetInputError
 
-ROOMS = ("trebuchet.model.cli", "trebuchet.ingest.cli", "trebuchet.fmu.cli")
+ROOMS = (
+    "trebuchet.model.cli",
+    "trebuchet.model.report_cli",
+    "trebuchet.model.sweep_cli",
+    "trebuchet.ingest.cli",
+    "trebuchet.fmu.cli",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
