@@ -29,13 +29,17 @@ class TriggerSearch:
 
     ``noise_multiple``: the fit window ends where an angle has left its rest value by this
     many noise sd, but at least ``min_excursion_fraction`` and at most
-    ``max_excursion_fraction`` of its whole excursion. ``min_rest_frames``: fewer rest
+    ``max_excursion_fraction`` of its whole excursion and never less than
+    ``min_noise_multiple`` sd, for ``persist_samples`` valid samples in a row.
+    ``min_rest_frames``: fewer rest
     frames than this before the fitted onset means the log starts in motion (no trigger).
     """
 
-    noise_multiple: float = 15.0
+    noise_multiple: float = 50.0
+    min_noise_multiple: float = 6.0
+    persist_samples: int = 5
     min_excursion_fraction: float = 0.01
-    max_excursion_fraction: float = 0.1
+    max_excursion_fraction: float = 0.2
     min_signal_to_noise: float = 20.0
     min_rest_frames: int = 3
     subframe_steps: int = 10
@@ -134,24 +138,36 @@ def detect_trigger(
             settings.min_excursion_fraction * excursion,
             settings.max_excursion_fraction * excursion,
         )
-        ends.append(ok[np.argmax(dev > level)])
+        level = max(level, settings.min_noise_multiple * sd[a])
+        # first sample from which the angle stays beyond the level for a few samples
+        above = dev > level
+        m = min(settings.persist_samples, above.size)
+        persistent = np.lib.stride_tricks.sliding_window_view(above, m).all(axis=1)
+        if not persistent.any():
+            continue
+        ends.append(ok[np.argmax(persistent)])
         use.append(a)
     if not use:
         return None
-    end = int(min(ends))
+    end = int(max(ends))
     if end < settings.min_rest_frames:
         return None
     tw = t[: end + 1]
-    Zw = Z[use, : end + 1]
     wgt = 1.0 / np.asarray(sd)[use] ** 2
+
+    def sse(t0: np.ndarray) -> np.ndarray:
+        total = np.zeros(t0.size)
+        for a, e, w in zip(use, ends, wgt, strict=True):
+            total += _onset_sse(t[: e + 1], Z[a : a + 1, : e + 1], np.array([w]), t0)
+        return total
+
     coarse = tw[:-1]
-    sse = _onset_sse(tw, Zw, wgt, coarse)
-    best = int(np.argmin(sse))
+    best = int(np.argmin(sse(coarse)))
     dt = np.median(np.diff(t)) if n > 1 else 1.0
     lo = tw[max(best - 1, 0)]
     hi = tw[min(best + 1, tw.size - 1)]
     fine = np.linspace(lo, hi, int(2 * settings.subframe_steps) + 1)
-    sse_f = _onset_sse(tw, Zw, wgt, fine)
+    sse_f = sse(fine)
     t0 = float(fine[np.argmin(sse_f)])
     first_valid = min(np.flatnonzero(np.isfinite(z))[0] for z in Z[use])
     if t0 - t[first_valid] < (settings.min_rest_frames - 0.5) * dt:

@@ -108,8 +108,10 @@ class FilterResult:
     def loglik_sums(self, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``Σ w log S``, ``Σ w ν²/S`` and ``Σ w`` per series; ``weight`` (B, n), 0 at gaps."""
         w = np.asarray(weight, float).T
+        ok = self.S > 0.0  # lost positive definiteness (round-off at extreme λ): NaN sums
+        log_s = np.log(np.where(ok, self.S, 1.0)) + np.where(ok, 0.0, np.nan)
         return (
-            (w * np.log(self.S)).sum(axis=0),
+            (w * log_s).sum(axis=0),
             (w * self.nu**2 / self.S).sum(axis=0),
             w.sum(axis=0),
         )

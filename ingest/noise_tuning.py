@@ -34,7 +34,7 @@ class NoiseSearch:
 
     log10_step: float = 0.5
     min_cutoff_hz: float = 0.3
-    cutoff_factor: float = 1.0
+    cutoff_factor: float = 0.8
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,7 @@ def _parabola_peak(x: np.ndarray, y: np.ndarray, j: int) -> tuple[float, float]:
         return float(x[j]), float(y[j])
     y0, y1, y2 = y[j - 1], y[j], y[j + 1]
     den = y0 - 2 * y1 + y2
-    if not den < 0:
+    if not (np.isfinite(y0) and np.isfinite(y2) and den < 0):
         return float(x[j]), float(y1)
     h = x[1] - x[0]
     s = 0.5 * (y0 - y2) / den
@@ -133,10 +133,13 @@ def maximum_likelihood_noise(
             rho = q_given[a] / (grid * r2_ref[a])
         else:
             rho = nu2_s[a] / N
-        ll = -0.5 * (N * np.log(2 * np.pi * rho) + log_s[a] + nu2_s[a] / rho)
+        rho = np.where(np.isfinite(rho) & (rho > 0), rho, np.nan)
+        with np.errstate(invalid="ignore"):
+            ll = -0.5 * (N * np.log(2 * np.pi * rho) + log_s[a] + nu2_s[a] / rho)
+        ll = np.where(np.isfinite(ll), ll, -np.inf)
         j = int(np.argmax(ll))
         x_best, ll_best = _parabola_peak(x, ll, j)
-        lrho = np.log(rho * r2_ref[a])
+        lrho = np.log(np.where(np.isfinite(rho), rho, 1.0) * r2_ref[a])
         r2 = float(np.exp(np.interp(x_best, x, lrho))) if m > 1 else float(np.exp(lrho[0]))
         if np.isfinite(r2_given[a]):
             r2 = float(r2_given[a])

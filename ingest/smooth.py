@@ -395,10 +395,15 @@ def smooth(
         return est  # type: ignore[return-value]
 
     def final_pass(steps: StepModel, est: list[NoiseEstimate]):
-        lam = np.array([e.lam for e in est])
-        r2 = np.array([e.r2 for e in est])
-        filt = batch_kalman_filter(Z, valid, steps, lam * r2, kick, r2, x0, P0, store=True)
-        return filt, backward_smoother(steps, filt, valid)
+        """Smoother with the chosen q (series 0..A-1) and, for the release scan, the
+        maximum-likelihood q (A..2A-1): one batched pass costs about the same as one."""
+        lam = np.array([e.lam for e in est] + [e.lam_ml for e in est])
+        r2 = np.tile([e.r2 for e in est], 2)
+        two = np.r_[np.arange(A), np.arange(A)]
+        filt = batch_kalman_filter(
+            Z[two], valid[two], steps, lam * r2, kick[two], r2, x0[two], P0[two], store=True
+        )
+        return filt, backward_smoother(steps, filt, valid[two])
 
     est = tune(steps, grid)
     filt, sm = final_pass(steps, est)
@@ -406,7 +411,9 @@ def smooth(
     if "release" in given:
         sources["release"] = "given" if release is not None else "given as none"
     else:
-        stat, when = release_statistic(ts, sm.r, sm.N, settings.release.subframe_positions)
+        stat, when = release_statistic(
+            ts, sm.r[:, A:], sm.N[:, A:], settings.release.subframe_positions
+        )
         sling_end = None
         if "phi" in tracked:
             last = {a: np.flatnonzero(valid[i])[-1] for i, a in enumerate(tracked)}
@@ -429,12 +436,12 @@ def smooth(
                     int(round(np.log10(local.max() / local.min()) / step)) + 1))
             filt, sm = final_pass(steps, est)
 
-    xs, Ps = sm.x, sm.P
+    xs, Ps = sm.x[:, :A], sm.P[:, :A]
     if backend == "filterpy":
         from .kalman_filterpy import filterpy_filter_smoother
 
-        xs = np.empty_like(sm.x)
-        Ps = np.empty_like(sm.P)
+        xs = np.empty_like(sm.x[:, :A])
+        Ps = np.empty_like(sm.P[:, :A])
         for a, e in enumerate(est):
             res = filterpy_filter_smoother(
                 Z[a], valid[a], steps, e.lam * e.r2, kick[a], e.r2, x0[a], P0[a]
