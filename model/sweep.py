@@ -291,7 +291,7 @@ def evaluate_design(base: Scene, item: tuple[int, Mapping[str, float]], *,
     return {**row, **values}
 
 
-def _evaluate_chunk(base: Scene, chunk: Sequence[tuple[int, Mapping[str, float]]],
+def _evaluate_chunk(chunk: Sequence[tuple[int, Mapping[str, float]]], base: Scene,
                     options: SimulationOptions, outputs: Sequence[str]) -> list[dict[str, Any]]:
     return [evaluate_design(base, item, options=options, outputs=outputs) for item in chunk]
 

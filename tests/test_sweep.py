@@ -243,3 +243,18 @@ def test_cli_writes_table(main, tmp_path, capsys):
     assert list(table["status"]) == ["refused", "refused", "ok", "ok"]
     assert table["release_angle"].iloc[2:].to_numpy() == pytest.approx(np.radians([35, 45]))
     assert "4 designs" in capsys.readouterr().out
+
+
+def test_dask_not_imported_unless_asked():
+    import subprocess
+    import sys
+
+    code = ("import sys, trebuchet.model.sweep, trebuchet.model.sweep_cli; "
+            "assert not any(m.split('.')[0] in ('dask', 'distributed') for m in sys.modules)")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_scheduler_without_dask_is_a_clear_error(horsdal, monkeypatch):
+    monkeypatch.setitem(__import__("sys").modules, "dask.distributed", None)
+    with pytest.raises(TrebuchetInputError, match="needs dask"):
+        sweep(horsdal, {"engine.m": [90.0]}, executor="tcp://127.0.0.1:1", progress=False)
