@@ -161,12 +161,13 @@ def detect_trigger(
             total += _onset_sse(t[: e + 1], Z[a : a + 1, : e + 1], np.array([w]), t0)
         return total
 
-    coarse = tw[:-1]
-    best = int(np.argmin(sse(coarse)))
+    stride = max(1, (tw.size - 1) // 100)  # at most ~100 coarse candidates
+    coarse_idx = np.arange(0, tw.size - 1, stride)
+    best = int(coarse_idx[np.argmin(sse(tw[coarse_idx]))])
     dt = np.median(np.diff(t)) if n > 1 else 1.0
-    lo = tw[max(best - 1, 0)]
-    hi = tw[min(best + 1, tw.size - 1)]
-    fine = np.linspace(lo, hi, int(2 * settings.subframe_steps) + 1)
+    lo = tw[max(best - stride, 0)]
+    hi = tw[min(best + stride, tw.size - 1)]
+    fine = np.linspace(lo, hi, int(2 * stride * settings.subframe_steps) + 1)
     sse_f = sse(fine)
     t0 = float(fine[np.argmin(sse_f)])
     first_valid = min(np.flatnonzero(np.isfinite(z))[0] for z in Z[use])
