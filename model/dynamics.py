@@ -72,7 +72,10 @@ def trough_phi_dd(theta: Any, phi: Any, theta_d: Any, phi_d: Any, theta_dd: Any,
 def counterweight_psi_dd(theta: Any, psi: Any, theta_d: Any, theta_dd: Any, e: Engine, g: float,
                          lib: ModuleType = np) -> Any:
     """ψ̈ of the hinged counterweight, a pendulum of length L3 hung from the moving hinge,
-    rad/s² (second row of the paper's eq. (A.1), divided by M L3²)."""
+    rad/s² (second row of the paper's eq. (A.1), divided by M L3²); θ̈ for a counterweight
+    fixed to the beam."""
+    if e.counterweight_offset is not None:
+        return theta_dd
     s, c = lib.sin(theta - psi), lib.cos(theta - psi)
     return (e.L2 * (c * theta_dd - s * theta_d * theta_d) - g * lib.cos(psi)) / e.L3
 
@@ -86,8 +89,13 @@ def sling_phi_dd(theta: Any, phi: Any, theta_d: Any, theta_dd: Any, e: Engine, g
 
 def _counterweight_share(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
                          lib: ModuleType) -> tuple[Any, Any]:
-    """Generalised force (N m) and effective inertia (kg m²) of the hinged counterweight
-    on the beam once its own equation is eliminated."""
+    """Generalised force (N m) and effective inertia (kg m²) of the counterweight on the beam:
+    for the hinged one once its own equation is eliminated; for one fixed to the beam at
+    ``ψ = θ + offset``, gravity's torque ``M g (L2 cos θ − L3 cos ψ)`` and ``M ρ²`` with
+    ``ρ² = L2² + L3² − 2 L2 L3 cos(offset)``."""
+    if e.counterweight_offset is not None:
+        rho2 = e.L2 * e.L2 + e.L3 * e.L3 - 2.0 * e.L2 * e.L3 * lib.cos(e.counterweight_offset)
+        return e.M * g * (e.L2 * lib.cos(theta) - e.L3 * lib.cos(psi)), e.M * rho2
     s, c = lib.sin(theta - psi), lib.cos(theta - psi)
     swing = e.L2 * theta_d * theta_d * s + g * lib.cos(psi)
     q = e.M * e.L2 * (e.L3 * psi_d * psi_d * s - c * swing + g * lib.cos(theta))

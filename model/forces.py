@@ -18,6 +18,7 @@ import pandas as pd
 
 from . import kinematics as kin
 from .dynamics import trough_f_g
+from .flight import projectile_in_flight
 from .scene import Engine, Scene
 
 __all__ = [
@@ -103,13 +104,19 @@ def pivot_reaction(F_H: np.ndarray, F_CM: np.ndarray, F_S: np.ndarray) -> np.nda
     return F_H + F_CM + F_S
 
 
-def torque_contributions(theta, F_H: np.ndarray, F_S: np.ndarray, e: Engine,
+def torque_contributions(theta, psi, F_H: np.ndarray, F_S: np.ndarray, e: Engine,
                          g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The three terms of the torque on the beam about the pivot (paper, eq. (19)), N m:
-    hinge ``L2 F_H·e_θ⊥``, centre of mass ``−L_CM m_b g e_y·e_θ⊥``, spigot ``−L1 F_S·e_θ⊥``."""
+    hinge ``L2 F_H·e_θ⊥``, centre of mass ``−L_CM m_b g e_y·e_θ⊥``, spigot ``−L1 F_S·e_θ⊥``.
+
+    A counterweight fixed rigidly to the beam pushes along no arm: its force acts at the
+    counterweight, and the hinge term gains ``−L3 F_H·e_ψ⊥`` (zero for the hinged one, where
+    ``F_H ∥ e_ψ``)."""
     perp = kin.unit_perp(theta)
-    return (e.L2 * kin.dot(F_H, perp), -e.L_CM * e.m_b * g * perp[1],
-            -e.L1 * kin.dot(F_S, perp))
+    hinge = e.L2 * kin.dot(F_H, perp)
+    if e.fixed_counterweight:
+        hinge = hinge - e.L3 * kin.dot(F_H, kin.unit_perp(psi))
+    return hinge, -e.L_CM * e.m_b * g * perp[1], -e.L1 * kin.dot(F_S, perp)
 
 
 def energies(theta, psi, theta_d, psi_d, v_m: np.ndarray, y_m, e: Engine, g: float,
@@ -166,24 +173,31 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
         ph_d = np.where(held, _col(angles, "phi_d"), 0.0)
         ph_dd = np.where(held, _col(angles, "phi_dd"), 0.0)
         F_CM = centre_of_mass_force(th, th_d, th_dd, e, g)
-        if form == "direct":
-            F_H = hinge_force(th, ps, th_d, ps_d, th_dd, ps_dd, e, g)
-            F_sling = sling_force_in_sling(th, ph, th_d, ph_d, th_dd, ph_dd, e, g)
-        elif form == "projected":
-            F_H = hinge_force_along_arm(th, ps, th_d, ps_d, th_dd, e, g)
-            F_sling = sling_force_along_sling(th, ph, th_d, ph_d, th_dd, e, g)
-        else:
+        if form not in ("direct", "projected"):
             raise ValueError(f"form must be 'direct' or 'projected', got {form!r}")
-        F_trough = sling_force_in_trough(th, ph, th_d, th_dd, e)
-        F_S = np.where(in_trough, F_trough, np.where(in_sling, F_sling, 0.0))
+        if form == "direct" or e.fixed_counterweight:
+            F_H = hinge_force(th, ps, th_d, ps_d, th_dd, ps_dd, e, g)
+        else:
+            F_H = hinge_force_along_arm(th, ps, th_d, ps_d, th_dd, e, g)
+        F_S = np.zeros((2, len(th)))
+        if in_sling.any():
+            if form == "direct":
+                F_sling = sling_force_in_sling(th, ph, th_d, ph_d, th_dd, ph_dd, e, g)
+            else:
+                F_sling = sling_force_along_sling(th, ph, th_d, ph_d, th_dd, e, g)
+            F_S = np.where(in_sling, F_sling, F_S)
+        if in_trough.any():
+            F_S = np.where(in_trough, sling_force_in_trough(th, ph, th_d, th_dd, e), F_S)
         F_R = pivot_reaction(F_H, F_CM, F_S)
-        t_hinge, t_cm, t_spigot = torque_contributions(th, F_H, F_S, e, g)
+        t_hinge, t_cm, t_spigot = torque_contributions(th, ps, F_H, F_S, e, g)
         N = t_hinge + t_cm + t_spigot
 
         r_m = kin.projectile_position(th, ph, e, H)
         v_m = kin.projectile_velocity(th, ph, th_d, ph_d, e)
-    if free.any():
-        r_m, v_m = _ballistic(angles, r_m, v_m, held, free, g, release_state)
+    if free.any() and e.m > 0.0:
+        r_m, v_m = _in_flight(angles, r_m, v_m, held, free, scene, release_state)
+    elif e.m == 0.0:  # dry fire: there is no projectile to place
+        r_m, v_m = np.full_like(r_m, np.nan), np.full_like(v_m, np.nan)
 
     v_M = kin.counterweight_velocity(th, ps, th_d, ps_d, e)
     v_CM = kin.centre_of_mass_velocity(th, th_d, e)
@@ -191,10 +205,14 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
     P_M = kin.dot(F_H, v_M)
     P_beam = N * th_d + e.m_b * g * v_CM[1]
     E_m, E_M, E_b = energies(th, ps, th_d, ps_d, v_m, r_m[1], e, g, H)
+    if e.m == 0.0:
+        E_m = np.zeros_like(E_M)
     rest = scene.start
     zero = np.zeros(1)
+    y_rest = (kin.projectile_position(np.array([rest.theta]), np.array([rest.phi]), e, H)[1]
+              if scene.projectile == "sling" else zero)
     E_m0, E_M0, E_b0 = energies(np.array([rest.theta]), np.array([rest.psi]), zero, zero,
-                                np.zeros((2, 1)), np.array([0.0]), e, g, H)
+                                np.zeros((2, 1)), y_rest, e, g, H)
 
     F_N = np.where(in_trough, trough_normal_force(F_S[1], e, g), 0.0)
     e_th, e_perp = kin.unit(th), kin.unit_perp(th)
@@ -221,11 +239,11 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
     return pd.DataFrame(columns, index=angles.index)
 
 
-def _ballistic(angles: pd.DataFrame, r_m: np.ndarray, v_m: np.ndarray, held: np.ndarray,
-               free: np.ndarray, g: float, release_state: dict[str, float] | None
+def _in_flight(angles: pd.DataFrame, r_m: np.ndarray, v_m: np.ndarray, held: np.ndarray,
+               free: np.ndarray, scene: Scene, release_state: dict[str, float] | None
                ) -> tuple[np.ndarray, np.ndarray]:
-    """Projectile position and velocity after release: free flight in vacuum from the release
-    state."""
+    """Projectile position and velocity after release, from the release state (by default the
+    last row still held in the sling) along the scene's flight model."""
     t = angles["t"].to_numpy(dtype=float)
     if release_state is None:
         before = np.flatnonzero(held)
@@ -234,11 +252,7 @@ def _ballistic(angles: pd.DataFrame, r_m: np.ndarray, v_m: np.ndarray, held: np.
         i = before[-1]
         release_state = {"t": t[i], "x": r_m[0, i], "y": r_m[1, i], "vx": v_m[0, i],
                          "vy": v_m[1, i]}
-    tau = t[free] - release_state["t"]
-    r_m = r_m.copy()
-    v_m = v_m.copy()
-    r_m[0, free] = release_state["x"] + release_state["vx"] * tau
-    r_m[1, free] = release_state["y"] + release_state["vy"] * tau - 0.5 * g * tau * tau
-    v_m[0, free] = release_state["vx"]
-    v_m[1, free] = release_state["vy"] - g * tau
+    r_m, v_m = r_m.copy(), v_m.copy()
+    r_m[:, free], v_m[:, free] = projectile_in_flight(release_state, t[free], scene.g,
+                                                      scene.flight, scene.engine.m)
     return r_m, v_m

@@ -20,7 +20,7 @@ from typing import Any
 
 from trebuchet.errors import TrebuchetInputError
 
-__all__ = ["Engine", "Start", "Release", "Scene", "default_moment_of_inertia"]
+__all__ = ["Engine", "Start", "Release", "Flight", "Scene", "default_moment_of_inertia"]
 
 
 def default_moment_of_inertia(m_b: float, L1: float, L2: float) -> float:
@@ -38,7 +38,8 @@ class Engine:
     ``L1`` pivot to spigot, ``L2`` pivot to hinge, ``L_CM`` pivot to the beam's
     centre of mass (positive toward the spigot), ``L3`` hinge to counterweight,
     ``L4`` sling, ``m_b`` beam, ``M`` counterweight, ``m`` projectile, ``I``
-    beam about the pivot.
+    beam about the pivot. ``counterweight_offset`` (rad) is None for the paper's hinged
+    counterweight; for a counterweight fixed rigidly to the beam it is the constant ``ψ − θ``.
     """
 
     L1: float
@@ -50,6 +51,13 @@ class Engine:
     M: float
     m: float
     I: float
+    counterweight_offset: float | None = None
+
+    @property
+    def fixed_counterweight(self) -> bool:
+        """True when the counterweight is rigid on the beam at ``ψ = θ + counterweight_offset``
+        (rad) instead of swinging on its hinge."""
+        return self.counterweight_offset is not None
 
     @property
     def first_moment(self) -> float:
@@ -83,14 +91,36 @@ class Release:
 
 
 @dataclass(frozen=True)
+class Flight:
+    """How the projectile flies after release: ``model`` "vacuum" (the paper) or "drag"
+    (quadratic air drag on a sphere of ``diameter`` m, drag coefficient ``drag_coefficient``,
+    air density ``air_density`` kg/m³)."""
+
+    model: str = "vacuum"
+    diameter: float = 0.0
+    drag_coefficient: float = 0.47
+    air_density: float = 1.225
+
+
+@dataclass(frozen=True)
 class Scene:
-    """An engine, its start pose, its release rule and gravity ``g`` (m/s²)."""
+    """An engine, its start pose, its release rule, gravity ``g`` (m/s²), where the projectile
+    starts (``projectile``: "trough" as in the paper, "sling" hanging at rest in the sling, or
+    "none" for a dry fire without projectile or sling) and how it flies after release."""
 
     engine: Engine
     start: Start
     release: Release
     g: float = 9.81
+    projectile: str = "trough"
+    flight: Flight = field(default_factory=Flight)
     source: str = field(default="<scene>", compare=False)
+
+    @property
+    def phases(self) -> tuple[int, ...]:
+        """The phases this scene goes through: (1, 2, 3) from the trough, (2, 3) from the
+        sling, (3,) for a dry fire."""
+        return {"trough": (1, 2, 3), "sling": (2, 3), "none": (3,)}[self.projectile]
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Scene:
@@ -126,25 +156,38 @@ class Scene:
             release["time"] = r.time
         if r.velocity_angle is not None:
             release["velocity_angle_deg"] = math.degrees(r.velocity_angle)
-        return {
-            "engine": {"L1": e.L1, "L2": e.L2, "L_CM": e.L_CM, "L3": e.L3, "L4": e.L4,
-                       "m_b": e.m_b, "M": e.M, "m": e.m, "I": e.I, "H": s.H},
-            "start": {"theta_deg": math.degrees(s.theta), "psi_deg": math.degrees(s.psi),
-                      "phi_deg": math.degrees(s.phi)},
-            "release": release,
-            "environment": {"g": self.g},
-        }
+        engine: dict[str, Any] = {"L1": e.L1, "L2": e.L2, "L_CM": e.L_CM, "L3": e.L3,
+                                  "L4": e.L4, "m_b": e.m_b, "M": e.M, "m": e.m, "I": e.I,
+                                  "H": s.H}
+        if e.fixed_counterweight:
+            engine["counterweight"] = "fixed"
+        start: dict[str, Any] = {"theta_deg": math.degrees(s.theta),
+                                 "psi_deg": math.degrees(s.psi), "phi_deg": math.degrees(s.phi)}
+        if self.projectile != "trough":
+            start["projectile"] = self.projectile
+        data: dict[str, Any] = {"engine": engine, "start": start, "release": release,
+                                "environment": {"g": self.g}}
+        if self.projectile == "none":
+            del data["release"], engine["m"], engine["L4"]
+            del start["phi_deg"]
+        f = self.flight
+        if f.model == "drag":
+            data["flight"] = {"model": "drag", "diameter": f.diameter,
+                              "drag_coefficient": f.drag_coefficient,
+                              "air_density": f.air_density}
+        return data
 
 
 # --------------------------------------------------------------------------- parsing
 
 _SECTIONS = {
-    "engine": {"L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m", "I", "H"},
-    "start": {"theta_deg", "psi_deg", "phi_deg", "theta", "psi", "phi"},
+    "engine": {"L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m", "I", "H", "counterweight"},
+    "start": {"theta_deg", "psi_deg", "phi_deg", "theta", "psi", "phi", "projectile"},
     "release": {"time", "velocity_angle_deg", "velocity_angle"},
     "environment": {"g"},
+    "flight": {"model", "diameter", "drag_coefficient", "air_density"},
 }
-_REQUIRED_ENGINE = ("L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m")
+_REQUIRED_ENGINE = ("L1", "L2", "L_CM", "L3", "M", "m_b")
 
 
 class _Reader:
@@ -187,6 +230,14 @@ class _Reader:
             raise self.fail(section, key, f"= {value:g}: must be a positive {unit}")
         return value
 
+    def choice(self, section: str, key: str, sec: dict[str, Any], options: tuple[str, ...]) -> str:
+        """A string key that must be one of ``options``; the first option is the default."""
+        value = sec.get(key, options[0])
+        if value not in options:
+            raise self.fail(section, key, f"= {value!r}: must be one of "
+                            + ", ".join(repr(o) for o in options))
+        return value
+
     def angle(self, section: str, name: str, sec: dict[str, Any]) -> float | None:
         """An angle given as ``name_deg`` (degrees) or ``name`` (rad); returns rad or None."""
         has_deg, has_rad = f"{name}_deg" in sec, name in sec
@@ -206,13 +257,24 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
         raise TrebuchetInputError(f"{source}: [{unknown[0]}]: unknown section (known sections: "
                                   + ", ".join(sorted(_SECTIONS)) + ")")
     eng = r.section("engine")
-    for key in _REQUIRED_ENGINE:
+    st = r.section("start")
+    projectile = r.choice("start", "projectile", st, ("trough", "sling", "none"))
+    required = _REQUIRED_ENGINE + (() if projectile == "none" else ("L4", "m"))
+    for key in required:
         if key not in eng:
             raise r.fail("engine", key, "missing key")
-    L1, L2, L3, L4 = (r.positive("engine", k, eng, "length in m") for k in ("L1", "L2", "L3", "L4"))
+    L1, L2, L3 = (r.positive("engine", k, eng, "length in m") for k in ("L1", "L2", "L3"))
     m_b = r.positive("engine", "m_b", eng, "mass in kg")
     M = r.positive("engine", "M", eng, "mass in kg")
-    m = r.positive("engine", "m", eng, "mass in kg")
+    if projectile == "none":
+        for key in ("L4", "m"):
+            if key in eng and r.number("engine", key, eng) < 0.0:
+                raise r.fail("engine", key, "must not be negative")
+        L4 = r.number("engine", "L4", eng) if "L4" in eng else 0.0
+        m = 0.0
+    else:
+        L4 = r.positive("engine", "L4", eng, "length in m")
+        m = r.positive("engine", "m", eng, "mass in kg")
     L_CM = r.number("engine", "L_CM", eng)
     if not -L2 <= L_CM <= L1:
         raise r.fail("engine", "L_CM", f"= {L_CM:g} m puts the centre of mass off the beam "
@@ -225,48 +287,93 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
         raise r.fail("engine", "M", f"= {M:g} kg cannot lift the beam: the counterweight's "
                      f"moment M L2 = {M * L2:g} kg m must exceed the beam's m_b L_CM = "
                      f"{m_b * L_CM:g} kg m")
-    engine = Engine(L1=L1, L2=L2, L_CM=L_CM, L3=L3, L4=L4, m_b=m_b, M=M, m=m, I=I)
+    mount = r.choice("engine", "counterweight", eng, ("hinged", "fixed"))
 
-    st = r.section("start")
-    angles = {}
+    angles: dict[str, float] = {}
     for name in ("theta", "psi", "phi"):
         value = r.angle("start", name, st)
         if value is None:
-            raise r.fail("start", f"{name}_deg", "missing key")
+            if name == "phi" and projectile == "none":
+                value = -math.pi / 2
+            else:
+                raise r.fail("start", f"{name}_deg", "missing key")
         angles[name] = value
     theta, psi, phi = angles["theta"], angles["psi"], angles["phi"]
     if not -math.pi / 2 < theta < 0.0:
         raise r.fail("start", "theta_deg", f"= {math.degrees(theta):g}°: the beam must start "
                      "between -90° and 0° (spigot low, on the projectile's side)")
     H = r.positive("engine", "H", eng, "height in m") if "H" in eng else -L1 * math.sin(theta)
-    _check_start_pose(r, engine, theta, phi, H)
+    offset = psi - theta if mount == "fixed" else None
+    engine = Engine(L1=L1, L2=L2, L_CM=L_CM, L3=L3, L4=L4, m_b=m_b, M=M, m=m, I=I,
+                    counterweight_offset=offset)
+    _check_start_pose(r, engine, theta, psi, phi, H, projectile)
     start = Start(theta=theta, psi=psi, phi=phi, H=H)
 
-    rel = r.section("release")
-    t_rel = r.positive("release", "time", rel, "time in s") if "time" in rel else None
-    angle_rel = r.angle("release", "velocity_angle", rel)
-    if (t_rel is None) == (angle_rel is None):
-        raise r.fail("release", None, "give exactly one of time, velocity_angle_deg")
-    if angle_rel is not None and not 0.0 < angle_rel < math.pi / 2:
-        raise r.fail("release", "velocity_angle_deg", f"= {math.degrees(angle_rel):g}°: must lie "
-                     "strictly between 0° and 90°")
+    if projectile == "none":
+        if "release" in data:
+            raise r.fail("release", None, "a dry fire (projectile = \"none\") has no release")
+        release = Release()
+    else:
+        rel = r.section("release")
+        t_rel = r.positive("release", "time", rel, "time in s") if "time" in rel else None
+        angle_rel = r.angle("release", "velocity_angle", rel)
+        if (t_rel is None) == (angle_rel is None):
+            raise r.fail("release", None, "give exactly one of time, velocity_angle_deg")
+        if angle_rel is not None and not 0.0 < angle_rel < math.pi / 2:
+            raise r.fail("release", "velocity_angle_deg", f"= {math.degrees(angle_rel):g}°: "
+                         "must lie strictly between 0° and 90°")
+        release = Release(t_rel, angle_rel)
 
     env = r.section("environment", required=False)
     g = r.positive("environment", "g", env, "acceleration in m/s²") if "g" in env else 9.81
-    return Scene(engine=engine, start=start, release=Release(t_rel, angle_rel), g=g,
-                 source=source)
+    return Scene(engine=engine, start=start, release=release, g=g, projectile=projectile,
+                 flight=_parse_flight(r), source=source)
 
 
-def _check_start_pose(r: _Reader, e: Engine, theta: float, phi: float, H: float) -> None:
-    """The projectile must lie in the trough (y = 0) at the end of the taut sling."""
+def _parse_flight(r: _Reader) -> Flight:
+    fl = r.section("flight", required=False)
+    model = r.choice("flight", "model", fl, ("vacuum", "drag"))
+    if model == "vacuum":
+        extra = sorted(set(fl) - {"model"})
+        if extra:
+            raise r.fail("flight", extra[0], "only used with model = \"drag\"")
+        return Flight()
+    if "diameter" not in fl:
+        raise r.fail("flight", "diameter", "missing key (model = \"drag\" needs the "
+                     "projectile's diameter in m)")
+    return Flight(
+        model="drag",
+        diameter=r.positive("flight", "diameter", fl, "length in m"),
+        drag_coefficient=(r.positive("flight", "drag_coefficient", fl, "number")
+                          if "drag_coefficient" in fl else 0.47),
+        air_density=(r.positive("flight", "air_density", fl, "density in kg/m³")
+                     if "air_density" in fl else 1.225),
+    )
+
+
+def _check_start_pose(r: _Reader, e: Engine, theta: float, psi: float, phi: float, H: float,
+                      projectile: str) -> None:
+    """Spigot and counterweight above ground; the projectile in the trough (y = 0) at the end of
+    the taut sling, or hanging above ground in the sling."""
     spigot_y = H + e.L1 * math.sin(theta)
     if spigot_y < -1e-9 * e.L1:
         raise r.fail("start", "theta_deg", f"= {math.degrees(theta):g}° puts the spigot "
                      f"{-spigot_y:.3g} m below ground (pivot height H = {H:g} m)")
+    cw_y = H - e.L2 * math.sin(theta) + e.L3 * math.sin(psi)
+    if cw_y < 0.0:
+        raise r.fail("start", "psi_deg", f"= {math.degrees(psi):g}° puts the counterweight "
+                     f"{-cw_y:.3g} m below ground (pivot height H = {H:g} m)")
+    if projectile == "none":
+        return
+    y_m = spigot_y + e.L4 * math.sin(phi)
+    if projectile == "sling":
+        if y_m < 0.0:
+            raise r.fail("start", "phi_deg", f"= {math.degrees(phi):g}° puts the projectile "
+                         f"{-y_m:.3g} m below ground; raise the pivot with [engine] H")
+        return
     if spigot_y > e.L4:
         raise r.fail("engine", "L4", f"= {e.L4:g} m: the sling cannot reach the trough from the "
                      f"spigot {spigot_y:.3g} m above it")
-    y_m = spigot_y + e.L4 * math.sin(phi)
     if abs(y_m) > 1e-6 * e.L4:
         fit = -math.pi + math.asin(spigot_y / e.L4)
         where = "below ground" if y_m < 0 else "above the trough"

@@ -23,7 +23,7 @@ from scipy.integrate import solve_ivp
 from trebuchet.errors import TrebuchetInputError
 
 from . import dynamics as dyn
-from .flight import vacuum_flight
+from .flight import flight_summary
 from .forces import loads
 from .scene import Scene
 
@@ -31,6 +31,7 @@ __all__ = ["simulate", "Trajectory", "integrate", "DEFAULT_RTOL"]
 
 DEFAULT_RTOL = 1e-10
 DEFAULT_AFTER_RELEASE = 0.5  # s of phase III simulated by default
+DEFAULT_DRY_FIRE = 1.5  # s simulated by default for a dry fire (phase III from the start)
 MAX_SHOT = 60.0  # s: a shot still in the trough or sling by then is refused
 
 
@@ -194,21 +195,56 @@ def _solve(rhs: Callable, t0: float, t1: float, y0: Sequence[float], events: lis
 
 
 def integrate(scene: Scene, *, rtol: float = DEFAULT_RTOL, method: str = "DOP853",
-              after_release: float = DEFAULT_AFTER_RELEASE) -> Trajectory:
-    """Integrate the three phases of a shot; see :func:`simulate` for the parameters."""
+              after_release: float | None = None) -> Trajectory:
+    """Integrate the phases of a shot that the scene calls for; see :func:`simulate`."""
     if not 0.0 < rtol < 1e-2:
         raise TrebuchetInputError(f"rtol = {rtol:g}: must lie between 0 and 1e-2")
+    if after_release is None:
+        after_release = DEFAULT_DRY_FIRE if scene.projectile == "none" else DEFAULT_AFTER_RELEASE
     if not after_release >= 0.0:
         raise TrebuchetInputError(f"after_release = {after_release:g} s: must not be negative")
-    e, H, s = scene.engine, scene.start.H, scene.start
-    rel = scene.release
-    t_rel = rel.time if rel.time is not None else math.inf
+    e, g, H, s = scene.engine, scene.g, scene.start.H, scene.start
     phases: list[PhaseSolution] = []
     events: dict[str, float] = {}
+    t0, beam = 0.0, [s.theta, s.psi, 0.0, 0.0]  # θ, ψ, θ̇, ψ̇
+    sling = [s.phi, 0.0]  # φ, φ̇
+    release_state = None
+    if 1 in scene.phases:
+        t0, beam = _phase_trough(scene, beam, rtol, method, phases, events)
+        th, ps, th_d, ps_d = beam
+        ph, ph_d, _, _, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H, math)
+        sling = [ph, ph_d]
+    if 2 in scene.phases:
+        t0, beam, sling = _phase_sling(scene, t0, beam, sling, rtol, method, phases, events)
+        th, ps, th_d, ps_d = beam
+        ph, ph_d = sling
+        release_state = {
+            "t": t0,
+            "x": e.L1 * math.cos(th) + e.L4 * math.cos(ph),
+            "y": H + e.L1 * math.sin(th) + e.L4 * math.sin(ph),
+            "vx": -e.L1 * th_d * math.sin(th) - e.L4 * ph_d * math.sin(ph),
+            "vy": e.L1 * th_d * math.cos(th) + e.L4 * ph_d * math.cos(ph),
+        }
+    # Phase III: beam and counterweight swing on; the projectile flies (or there is none).
+    t_end = t0 + after_release
+    if after_release > 0.0 or not phases:
+        sol = _solve(_rhs_phase3(scene), t0, t_end, beam, [], rtol, method)
+        _check(sol, scene, "phase III")
+        phases.append(PhaseSolution(3, t0, t_end, sol.sol, sol.nfev))
+    events["end"] = t_end
+    return Trajectory(scene=scene, phases=tuple(phases), events=events,
+                      release_state=release_state, rtol=rtol, method=method)
 
-    # Phase I: beam and counterweight; the projectile follows the trough constraint.
+
+def _phase_trough(scene: Scene, beam: list[float], rtol: float, method: str,
+                  phases: list[PhaseSolution], events: dict[str, float]
+                  ) -> tuple[float, list[float]]:
+    """Phase I, beam and counterweight with the projectile on the trough constraint, up to
+    lift-off. Returns the lift-off time and the beam state there."""
+    e, rel = scene.engine, scene.release
+    t_rel = rel.time if rel.time is not None else math.inf
     ev = [_lift_off_event(scene), _sling_upright_event(scene)]
-    sol = _solve(_rhs_phase1(scene), 0.0, MAX_SHOT, [s.theta, s.psi, 0.0, 0.0], ev, rtol, method)
+    sol = _solve(_rhs_phase1(scene), 0.0, MAX_SHOT, beam, ev, rtol, method)
     _check(sol, scene, "phase I")
     if sol.status != 1:
         raise TrebuchetInputError(f"{scene.source}: the projectile did not lift off within "
@@ -226,17 +262,28 @@ def integrate(scene: Scene, *, rtol: float = DEFAULT_RTOL, method: str = "DOP853
                                   "trough")
     events["lift_off"] = t_lift
     phases.append(PhaseSolution(1, 0.0, t_lift, sol.sol, sol.nfev))
+    return t_lift, list(sol.y_events[0][0])
 
-    # Phase II: the projectile swings in the sling.
-    th, ps, th_d, ps_d = sol.y_events[0][0]
-    ph, ph_d, _, _, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, scene.g, H, math)
+
+def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float], rtol: float,
+                 method: str, phases: list[PhaseSolution], events: dict[str, float]
+                 ) -> tuple[float, list[float], list[float]]:
+    """Phase II, the projectile in the sling, up to release. Returns the release time and the
+    beam and sling states there."""
+    rel = scene.release
+    t_rel = rel.time if rel.time is not None else math.inf
+    if t_rel <= t0:
+        raise TrebuchetInputError(f"{scene.source}: [release] time = {t_rel:g} s: must come "
+                                  f"after the start of phase II at {t0:.4g} s")
     ev = []
     if rel.time is not None:
         ev.append(_time_event(rel.time))
     if rel.velocity_angle is not None:
         ev.append(_velocity_angle_event(scene, rel.velocity_angle))
     t_stop = min(t_rel, MAX_SHOT) if rel.velocity_angle is None else MAX_SHOT
-    sol = _solve(_rhs_phase2(scene), t_lift, t_stop, [th, ps, ph, th_d, ps_d, ph_d], ev, rtol,
+    th, ps, th_d, ps_d = beam
+    ph, ph_d = sling
+    sol = _solve(_rhs_phase2(scene), t0, t_stop, [th, ps, ph, th_d, ps_d, ph_d], ev, rtol,
                  method)
     _check(sol, scene, "phase II")
     hits = [(te[0], ye[0]) for te, ye in zip(sol.t_events, sol.y_events, strict=True) if te.size]
@@ -251,24 +298,9 @@ def integrate(scene: Scene, *, rtol: float = DEFAULT_RTOL, method: str = "DOP853
             f"within {MAX_SHOT:g} s")
     t_release = float(t_release)
     events["release"] = t_release
-    phases.append(PhaseSolution(2, t_lift, t_release, sol.sol, sol.nfev))
-    th, ps, ph, th_d, ps_d, ph_d = y_release
-    x = e.L1 * math.cos(th) + e.L4 * math.cos(ph)
-    y = H + e.L1 * math.sin(th) + e.L4 * math.sin(ph)
-    vx = -e.L1 * th_d * math.sin(th) - e.L4 * ph_d * math.sin(ph)
-    vy = e.L1 * th_d * math.cos(th) + e.L4 * ph_d * math.cos(ph)
-    release_state = {"t": t_release, "x": x, "y": y, "vx": vx, "vy": vy}
-
-    # Phase III: beam and counterweight swing on; the projectile flies.
-    t_end = t_release + after_release
-    if after_release > 0.0:
-        sol = _solve(_rhs_phase3(scene), t_release, t_end, [th, ps, th_d, ps_d], [], rtol,
-                     method)
-        _check(sol, scene, "phase III")
-        phases.append(PhaseSolution(3, t_release, t_end, sol.sol, sol.nfev))
-    events["end"] = t_end
-    return Trajectory(scene=scene, phases=tuple(phases), events=events,
-                      release_state=release_state, rtol=rtol, method=method)
+    phases.append(PhaseSolution(2, t0, t_release, sol.sol, sol.nfev))
+    th, ps, ph, th_d, ps_d, ph_d = (float(v) for v in y_release)
+    return t_release, [th, ps, th_d, ps_d], [ph, ph_d]
 
 
 def _check(sol: Any, scene: Scene, what: str) -> None:
@@ -281,13 +313,28 @@ def default_times(traj: Trajectory, dt: float = 1e-3) -> np.ndarray:
     """A uniform grid of step ``dt`` (s) over the shot, with lift-off and release added."""
     grid = np.arange(0.0, traj.t_end + 0.5 * dt, dt)
     grid = grid[grid <= traj.t_end]
-    extra = [traj.events["lift_off"], traj.events["release"], traj.t_end]
+    extra = list(traj.events.values())
     return np.unique(np.concatenate([grid, extra]))
+
+
+def engine_energy(run: pd.DataFrame, traj: Trajectory) -> np.ndarray:
+    """Mechanical energy gained by the engine since rest, J: ``E_m + E_M + E_beam``, with the
+    projectile's energy frozen at its release value once it flies (drag may take it after
+    that). Zero for an exact solution: the drift of the integrator."""
+    E_m = run["E_m"].to_numpy()
+    if traj.release_state is not None:
+        rs, e, s = traj.release_state, traj.scene.engine, traj.scene
+        y_rest = 0.0
+        if s.projectile == "sling":
+            y_rest = s.start.H + e.L1 * math.sin(s.start.theta) + e.L4 * math.sin(s.start.phi)
+        at_release = 0.5 * e.m * (rs["vx"] ** 2 + rs["vy"] ** 2) + e.m * s.g * (rs["y"] - y_rest)
+        E_m = np.where(run["phase"].to_numpy() == 3, at_release, E_m)
+    return E_m + run["E_M"].to_numpy() + run["E_beam"].to_numpy()
 
 
 def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *,
              rtol: float = DEFAULT_RTOL, method: str = "DOP853",
-             after_release: float = DEFAULT_AFTER_RELEASE, dt: float = 1e-3) -> pd.DataFrame:
+             after_release: float | None = None, dt: float = 1e-3) -> pd.DataFrame:
     """Simulate a shot and compute every force, torque, power and energy of the paper.
 
     Parameters
@@ -301,8 +348,9 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
         Relative tolerance of the integrator (absolute tolerance ``rtol/100``).
     method : str
         A ``scipy.integrate.solve_ivp`` method; DOP853 (default) suits this non-stiff system.
-    after_release : float
-        Seconds of phase III (beam and counterweight after release) to simulate.
+    after_release : float, optional
+        Seconds of phase III (beam and counterweight after release) to simulate; default 0.5 s,
+        or 1.5 s for a dry fire (which is phase III from the start).
     dt : float
         Output step of the default grid, s.
 
@@ -310,17 +358,18 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     -------
     DataFrame with the columns of CONTRACT.md (and the extras of
     :func:`trebuchet.model.forces.loads`). ``attrs["events"]`` holds ``lift_off``,
-    ``release`` and ``end`` (s); ``attrs["flight"]`` the flight in vacuum;
+    ``release`` and ``end`` (s; lift-off and release only where the scene has them);
+    ``attrs["flight"]`` the flight (vacuum or drag, None for a dry fire);
     ``attrs["diagnostics"]`` the solver, tolerance, number of evaluations and energy drift.
     """
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
     times = default_times(traj, dt) if t_eval is None else np.asarray(t_eval, dtype=float)
     run = loads(traj.angles(times), scene, release_state=traj.release_state)
-    total = run["E_m"] + run["E_M"] + run["E_beam"]
-    drift = float(np.max(np.abs(total))) if len(run) else 0.0
+    drift = float(np.max(np.abs(engine_energy(run, traj)))) if len(run) else 0.0
     delta_u = scene.engine.first_moment * scene.g * (1.0 - math.sin(scene.start.theta))
     run.attrs["events"] = dict(traj.events)
-    run.attrs["flight"] = vacuum_flight(traj.release_state, scene.g)
+    run.attrs["flight"] = (None if traj.release_state is None else flight_summary(
+        traj.release_state, scene.g, scene.flight, scene.engine.m))
     run.attrs["diagnostics"] = {
         "method": method, "rtol": rtol, "nfev": traj.nfev,
         "energy_drift": drift, "energy_drift_rel": drift / delta_u, "delta_U": delta_u,
