@@ -192,6 +192,16 @@ def wrap_deg(d: np.ndarray) -> np.ndarray:
     return d - 360.0 * np.ceil((d - 180.0) / 360.0)
 
 
+def sling_branch_note(shown: np.ndarray) -> str:
+    """Where the first written sling angle (deg) lies, and what that means when read."""
+    first = float(shown[np.isfinite(shown)][0])
+    text = f"first sling value {first:+.1f}°"
+    if first > 0:
+        text += (": a reader that keeps the first frame's branch gets phi 360° above the "
+                 "paper's −180° start")
+    return text
+
+
 def central_rate(t: np.ndarray, d: np.ndarray) -> np.ndarray:
     """Tracker's ω: ``(θ[i+1] − θ[i−1]) / (t[i+1] − t[i−1])``, NaN without both neighbours."""
     out = np.full(len(d), np.nan)
@@ -320,6 +330,7 @@ def tracker_sample(index: int) -> Sample:
     rows = []
     rates = [central_rate(t, deg[:, i]) for i in range(3)]
     shown = wrap_deg(deg)
+    branch = sling_branch_note(shown[:, 2])
     for k in range(len(t)):
         cells = [f"{t[k]:.4f}"]
         for i in range(3):
@@ -332,8 +343,9 @@ def tracker_sample(index: int) -> Sample:
         f"`sling` with columns θ (deg, 0.1°) and ω (deg/s, central difference of the noisy θ, "
         f"as Tracker computes it); {fps:g} fps, video time {t[0]:.4f}–{t[-1]:.4f} s (trigger "
         f"at {TRIGGER:g} s), Gaussian noise sd {sd:g}° on θ; θ wrapped into (−180°, 180°] as "
-        f"a protractor reports it (the sling starts at ±180° and flips between the two); "
-        f"{_note(blanks, 'empty θ cells')}; the sling track ends at release (empty cells). "
+        f"a protractor reports it (the sling starts at ±180° and flips between the two; "
+        f"{branch}); {_note(blanks, 'empty θ cells')}; the sling track ends at release "
+        f"(empty cells). "
         f"Seed `[{SEED}, {index}]`. Read: "
         f"`read_log(path, columns={TRACKER_COLUMNS!r})`."
     )
@@ -351,6 +363,7 @@ def tracker_eu_sample(index: int) -> Sample:
     deg = noisy_angles(rng, true, sd)
     blanks = blank_cells(rng, deg, 4)
     shown = wrap_deg(deg)
+    branch = sling_branch_note(shown[:, 2])
     rows = [[java_sci(t[k], True)] + [java_sci(v, True) for v in shown[k]]
             for k in range(len(t))]
     text = tracker_text(list(TRACKER_EU_COLUMNS), ["θ"], rows, ";", "\r\n")
@@ -359,8 +372,8 @@ def tracker_eu_sample(index: int) -> Sample:
         f"comma, unformatted numbers (`-5,012345E1`), CRLF line ends; protractor tracks "
         f"`Balken`, `Arm`, `Schlinge` with θ only (deg); {fps:g} fps, video time "
         f"{t[0]:.4f}–{t[-1]:.4f} s (trigger at {TRIGGER:g} s), Gaussian noise sd {sd:g}°; θ "
-        f"wrapped into (−180°, 180°]; {_note(blanks, 'empty θ cells')}; the sling track ends "
-        f"at release. Seed `[{SEED}, {index}]`. Read: "
+        f"wrapped into (−180°, 180°] ({branch}); {_note(blanks, 'empty θ cells')}; the sling "
+        f"track ends at release. Seed `[{SEED}, {index}]`. Read: "
         f"`read_log(path, columns={TRACKER_EU_COLUMNS!r})`."
     )
     return Sample(name, text, readme)
