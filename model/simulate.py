@@ -12,6 +12,7 @@ events, the flight in vacuum and the solver's diagnostics.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -20,7 +21,7 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
 
 from . import dynamics as dyn
 from .flight import flight_summary
@@ -170,6 +171,18 @@ def _sling_upright_event(scene: Scene) -> Callable:
     return _event(upright, 1.0)
 
 
+def _ground_event(scene: Scene) -> Callable:
+    """Height of the projectile in the sling, m (a hair below ground counts as the ground, so
+    that lift-off from the trough at y = 0 is not taken for a strike)."""
+    e, H = scene.engine, scene.start.H
+    margin = 1e-9 * (e.L1 + e.L4)
+
+    def height(t: float, y: Sequence[float]) -> float:
+        return H + e.L1 * math.sin(y[0]) + e.L4 * math.sin(y[2]) + margin
+
+    return _event(height, -1.0)
+
+
 def _time_event(t_release: float) -> Callable:
     return _event(lambda t, y: t - t_release, 1.0)
 
@@ -275,7 +288,7 @@ def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float],
     if t_rel <= t0:
         raise TrebuchetInputError(f"{scene.source}: [release] time = {t_rel:g} s: must come "
                                   f"after the start of phase II at {t0:.4g} s")
-    ev = []
+    ev = [_ground_event(scene)]
     if rel.time is not None:
         ev.append(_time_event(rel.time))
     if rel.velocity_angle is not None:
@@ -286,9 +299,18 @@ def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float],
     sol = _solve(_rhs_phase2(scene), t0, t_stop, [th, ps, ph, th_d, ps_d, ph_d], ev, rtol,
                  method)
     _check(sol, scene, "phase II")
-    hits = [(te[0], ye[0]) for te, ye in zip(sol.t_events, sol.y_events, strict=True) if te.size]
+    hits = [(te[0], ye[0], k) for k, (te, ye) in enumerate(zip(sol.t_events, sol.y_events,
+                                                                strict=True)) if te.size]
+    if hits and min(hits, key=lambda h: h[0])[2] == 0:
+        t_hit = min(hits, key=lambda h: h[0])[0]
+        rule = (f"time = {rel.time:g} s" if rel.time is not None else
+                f"velocity_angle_deg = {math.degrees(rel.velocity_angle):g}")
+        raise TrebuchetInputError(
+            f"{scene.source}: [release] {rule}: the projectile strikes the ground at "
+            f"t = {t_hit:.4g} s while still in the sling; release it earlier, use a shorter "
+            "sling or raise the pivot")
     if hits:
-        t_release, y_release = min(hits, key=lambda h: h[0])
+        t_release, y_release, _ = min(hits, key=lambda h: h[0])
     elif rel.velocity_angle is None:  # released by time exactly at the end of the interval
         t_release, y_release = sol.t[-1], sol.y[:, -1]
     else:
@@ -373,5 +395,60 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     run.attrs["diagnostics"] = {
         "method": method, "rtol": rtol, "nfev": traj.nfev,
         "energy_drift": drift, "energy_drift_rel": drift / delta_u, "delta_U": delta_u,
+        "slack": slack_intervals(run), "advice": _advice(scene, traj),
     }
+    _refuse_non_finite(run, scene)
+    for a, b in run.attrs["diagnostics"]["slack"]:
+        warnings.warn(ModelValidityWarning(
+            f"{scene.source}: the sling goes slack (tension below zero) from t = {a:.4g} s to "
+            f"{b:.4g} s: a rigid sling cannot push, so the loads there are fiction"),
+            stacklevel=2)
     return run
+
+
+def slack_intervals(run: pd.DataFrame) -> list[tuple[float, float]]:
+    """Intervals (s) where the sling holding the projectile would have to push
+    (``sling_tension < 0``): the rigid-sling model is not valid there."""
+    slack = (run["phase"].to_numpy() <= 2) & (run["sling_tension"].to_numpy() < 0.0)
+    t = run["t"].to_numpy()
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], slack.astype(np.int8), [0]])))
+    return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _advice(scene: Scene, traj: Trajectory) -> list[str]:
+    """What the user can do about a costly or stiff scene."""
+    advice = []
+    e = scene.engine
+    if traj.nfev > 5000 and not e.fixed_counterweight and e.L3 < 0.05 * e.L1:
+        advice.append(
+            f"L3 = {e.L3:g} m makes the counterweight's swing stiff ({traj.nfev} evaluations); "
+            "if it barely swings, model it fixed to the beam ([engine] counterweight = "
+            "\"fixed\"), or use method=\"Radau\"")
+    return advice
+
+
+# Columns that are undefined by design: the sling after release, the projectile of a dry fire.
+_UNDEFINED_AFTER_RELEASE = ("phi", "phi_d", "phi_dd")
+_UNDEFINED_DRY_FIRE = ("x_m", "y_m", "vx_m", "vy_m")
+
+
+def _refuse_non_finite(run: pd.DataFrame, scene: Scene) -> None:
+    """Output holds no NaN or infinity except where a quantity does not exist (the sling's
+    angle after release, the projectile of a dry fire); anything else is refused."""
+    skip = set(_UNDEFINED_AFTER_RELEASE) | (set(_UNDEFINED_DRY_FIRE) if scene.engine.m == 0.0
+                                            else set())
+    phase3 = run["phase"].to_numpy() == 3
+    for name in run.columns:
+        values = run[name].to_numpy()
+        if values.dtype.kind != "f":
+            continue
+        bad = ~np.isfinite(values)
+        if name in _UNDEFINED_AFTER_RELEASE:
+            bad &= ~phase3
+        elif name in skip:
+            continue
+        if bad.any():
+            t_bad = float(run["t"].to_numpy()[np.argmax(bad)])
+            raise TrebuchetInputError(
+                f"{scene.source}: the model breaks down at t = {t_bad:.4g} s ({name} is not "
+                "finite); the scene is outside what the equations of motion can describe")
