@@ -8,7 +8,7 @@ from trebuchet.output import write_csv
 
 from .paper import paper_comparison
 from .scene import Scene
-from .simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
+from .simulate import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,8 +17,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--dt", type=float, default=1e-3, help="output step in s (default 0.001)")
-    p.add_argument("--rtol", type=float, default=DEFAULT_RTOL,
-                   help=f"integrator tolerance (default {DEFAULT_RTOL:g})")
+    p.add_argument("--accuracy", default="default", type=_accuracy,
+                   help="fast, default, precise, or a relative tolerance such as 1e-8 "
+                   f"(default: {DEFAULT_RTOL:g})")
     p.add_argument("--after-release", type=float, default=DEFAULT_AFTER_RELEASE,
                    help=f"s of phase III to simulate (default {DEFAULT_AFTER_RELEASE:g})")
     p.set_defaults(run=_simulate)
@@ -31,9 +32,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=_paper)
 
 
+def _accuracy(text: str) -> float | str:
+    if text in ACCURACY:
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give fast, default, precise or a number"
+                                         ) from None
+
+
 def _simulate(args: argparse.Namespace) -> int:
     scene = Scene.from_toml(args.scene)
-    run = simulate(scene, rtol=args.rtol, after_release=args.after_release, dt=args.dt)
+    run = simulate(scene, rtol=args.accuracy, after_release=args.after_release, dt=args.dt)
     write_csv(run, args.output)
     ev, fl = run.attrs["events"], run.attrs["flight"]
     print(f"lift-off {ev['lift_off']:.4f} s, release {ev['release']:.4f} s, "

@@ -28,9 +28,10 @@ from .flight import flight_summary
 from .forces import loads
 from .scene import Scene
 
-__all__ = ["simulate", "Trajectory", "integrate", "DEFAULT_RTOL"]
+__all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
 DEFAULT_RTOL = 1e-10
+ACCURACY = {"fast": 1e-6, "default": DEFAULT_RTOL, "precise": 1e-12}  # named tolerances
 DEFAULT_AFTER_RELEASE = 0.5  # s of phase III simulated by default
 DEFAULT_DRY_FIRE = 1.5  # s simulated by default for a dry fire (phase III from the start)
 MAX_SHOT = 60.0  # s: a shot still in the trough or sling by then is refused
@@ -207,11 +208,22 @@ def _solve(rhs: Callable, t0: float, t1: float, y0: Sequence[float], events: lis
                      dense_output=True, events=events or None)
 
 
-def integrate(scene: Scene, *, rtol: float = DEFAULT_RTOL, method: str = "DOP853",
-              after_release: float | None = None) -> Trajectory:
-    """Integrate the phases of a shot that the scene calls for; see :func:`simulate`."""
+def resolve_rtol(rtol: float | str) -> float:
+    """A relative tolerance from a preset name of :data:`ACCURACY` or a number in (0, 1e-2)."""
+    if isinstance(rtol, str):
+        if rtol not in ACCURACY:
+            raise TrebuchetInputError(f"accuracy {rtol!r}: must be one of "
+                                      + ", ".join(ACCURACY) + " or a tolerance")
+        return ACCURACY[rtol]
     if not 0.0 < rtol < 1e-2:
         raise TrebuchetInputError(f"rtol = {rtol:g}: must lie between 0 and 1e-2")
+    return float(rtol)
+
+
+def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP853",
+              after_release: float | None = None) -> Trajectory:
+    """Integrate the phases of a shot that the scene calls for; see :func:`simulate`."""
+    rtol = resolve_rtol(rtol)
     if after_release is None:
         after_release = DEFAULT_DRY_FIRE if scene.projectile == "none" else DEFAULT_AFTER_RELEASE
     if not after_release >= 0.0:
@@ -355,7 +367,7 @@ def engine_energy(run: pd.DataFrame, traj: Trajectory) -> np.ndarray:
 
 
 def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *,
-             rtol: float = DEFAULT_RTOL, method: str = "DOP853",
+             rtol: float | str = "default", method: str = "DOP853",
              after_release: float | None = None, dt: float = 1e-3) -> pd.DataFrame:
     """Simulate a shot and compute every force, torque, power and energy of the paper.
 
@@ -366,8 +378,10 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     t_eval : array of s, optional
         Output times after the trigger. Default: every ``dt`` s, plus lift-off, release and the
         end. At an event time a row holds the phase that ends there.
-    rtol : float
-        Relative tolerance of the integrator (absolute tolerance ``rtol/100``).
+    rtol : float or str
+        Relative tolerance of the integrator (absolute tolerance ``rtol/100``), or a preset of
+        :data:`ACCURACY`: ``"fast"`` (1e-6), ``"default"`` (1e-10: energy conserved to 1e-9 of
+        ΔU), ``"precise"`` (1e-12). ``make bench`` measures what each costs and buys.
     method : str
         A ``scipy.integrate.solve_ivp`` method; DOP853 (default) suits this non-stiff system.
     after_release : float, optional
@@ -384,6 +398,7 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     ``attrs["flight"]`` the flight (vacuum or drag, None for a dry fire);
     ``attrs["diagnostics"]`` the solver, tolerance, number of evaluations and energy drift.
     """
+    rtol = resolve_rtol(rtol)
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
     times = default_times(traj, dt) if t_eval is None else np.asarray(t_eval, dtype=float)
     run = loads(traj.angles(times), scene, release_state=traj.release_state)
