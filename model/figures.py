@@ -159,7 +159,7 @@ def fig_reactions(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     _panel_title(axes[1], "b", "at the pivot, on the beam")
     _time_panel(axes[2], frames, [("F_R_x", "F_R,x", COLOURS["R_x"])], scale=Mg,
                 ylabel="F_R,x / (M g)  (> 0: away from the target)")
-    _annotate(axes[2], frames, "F_R_x", Mg, "M g", at="trough", offset=(-30, -20))
+    _annotate(axes[2], frames, "F_R_x", Mg, "M g", at="trough", offset=(-140, -4))
     _annotate(axes[2], frames, "F_R_x", Mg, "M g", offset=(-130, -4))
     _panel_title(axes[2], "c", "horizontal component at the pivot")
     return fig
