@@ -361,8 +361,7 @@ def fig_energy(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     """Rates of work (kW, upper row) and mechanical energy gained since t = 0 (kJ, lower
     row) for the counterweight, the beam and the projectile (the paper's Figs. "Power" and
     "Power_Beam"). Crosses on the projectile's power at 10, 50 and 90 % of its energy at
-    release; the beam's peak energy is given as a share of ΔU when the frame carries it
-    (``attrs["diagnostics"]["delta_U"]``, J)."""
+    release; the beam's peak energy is given as a share of the scene's ΔU (J)."""
     frames = _frames(predicted, measured)
     fig, axes = _new_figure("Rates of work and energies (full points: lift-off, release)", 2,
                             3, (14, 7.5))
@@ -379,7 +378,7 @@ def fig_energy(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
         for tc in _crossing_times(frame, "E_m", (0.1, 0.5, 0.9)):
             p = np.interp(tc, shot_time(frame), frame["P_m"].to_numpy(dtype=float))
             axes[2].plot(tc * 1e3, p / 1e3, "x", ms=8, mew=1.5, color="black")
-        delta_u = (frame.attrs.get("diagnostics") or {}).get("delta_U")
+        delta_u = scene.delta_U
         e_beam = frame["E_beam"].to_numpy(dtype=float)
         if delta_u and np.isfinite(e_beam).any():
             i = int(np.nanargmax(e_beam))

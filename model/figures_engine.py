@@ -33,9 +33,8 @@ def engine_points(frame: pd.DataFrame, t: float, scene: Scene) -> dict[str, np.n
         ok = np.isfinite(y)
         at[col] = float(np.interp(t, ts[ok], y[ok])) if ok.any() else math.nan
     pivot = np.array([0.0, H])
-    e_theta = kin.unit(np.array(at["theta"]))
-    hinge = pivot - e.L2 * e_theta
-    spigot = pivot + e.L1 * e_theta
+    hinge = kin.hinge_position(np.array(at["theta"]), e, H)
+    spigot = kin.spigot_position(np.array(at["theta"]), e, H)
     weight = kin.counterweight_position(np.array(at["theta"]), np.array(at["psi"]), e, H)
     return {"pivot": pivot, "hinge": hinge, "spigot": spigot, "counterweight": weight,
             "projectile": np.array([at["x_m"], at["y_m"]])}

@@ -76,7 +76,7 @@ def peak_table(frame: pd.DataFrame, scene: Scene) -> pd.DataFrame:
     extreme("P_M", "least power on counterweight P_M", 1e3, "kW", "W", how="min")
     extreme("E_beam", "greatest beam energy E_beam", 1e3, "kJ", "J")
     at_release("E_m", "projectile energy E_m at release", 1e3, "kJ", "J")
-    delta_u = (frame.attrs.get("diagnostics") or {}).get("delta_U")
+    delta_u = scene.delta_U
     if delta_u:
         for r in list(rows):
             if r["quantity"] in ("greatest beam energy E_beam", "projectile energy E_m at "

@@ -19,6 +19,8 @@ __all__ = [
     "unit_perp",
     "rotated_acceleration",
     "dot",
+    "spigot_position",
+    "hinge_position",
     "projectile_position",
     "projectile_velocity",
     "counterweight_position",
@@ -51,6 +53,20 @@ def rotated_acceleration(a: np.ndarray, a_d: np.ndarray, a_dd: np.ndarray) -> np
 def dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Row-wise scalar product of two (2, n) vector arrays."""
     return u[0] * v[0] + u[1] * v[1]
+
+
+def spigot_position(theta: np.ndarray, e: Engine, H: float) -> np.ndarray:
+    """``r_S = H e_y + L1 e_θ``, m: where the sling hangs from the beam."""
+    r = e.L1 * unit(theta)
+    r[1] += H
+    return r
+
+
+def hinge_position(theta: np.ndarray, e: Engine, H: float) -> np.ndarray:
+    """``r_H = H e_y − L2 e_θ``, m: where the counterweight hangs from the beam."""
+    r = -e.L2 * unit(theta)
+    r[1] += H
+    return r
 
 
 def projectile_position(theta: np.ndarray, phi: np.ndarray, e: Engine, H: float) -> np.ndarray:

@@ -117,6 +117,12 @@ class Scene:
     source: str = field(default="<scene>", compare=False)
 
     @property
+    def delta_U(self) -> float:
+        """Available mechanical energy ``ΔU = (M L2 − m_b L_CM) g (1 − sin θ_i)``, J (the paper's
+        Section 4): the beam's fall from its start to upright with the counterweight hanging."""
+        return self.engine.first_moment * self.g * (1.0 - math.sin(self.start.theta))
+
+    @property
     def phases(self) -> tuple[int, ...]:
         """The phases this scene goes through: (1, 2, 3) from the trough, (2, 3) from the
         sling, (3,) for a dry fire."""

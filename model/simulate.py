@@ -403,7 +403,7 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     times = default_times(traj, dt) if t_eval is None else np.asarray(t_eval, dtype=float)
     run = loads(traj.angles(times), scene, release_state=traj.release_state)
     drift = float(np.max(np.abs(engine_energy(run, traj)))) if len(run) else 0.0
-    delta_u = scene.engine.first_moment * scene.g * (1.0 - math.sin(scene.start.theta))
+    delta_u = scene.delta_U
     run.attrs["events"] = dict(traj.events)
     run.attrs["flight"] = (None if traj.release_state is None else flight_summary(
         traj.release_state, scene.g, scene.flight, scene.engine.m))
