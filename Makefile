@@ -21,8 +21,12 @@ install: $(VENV)/.installed
 
 install-test: $(VENV)/.installed-test
 
+DEMO_LOG := data_samples/horsdal_240fps.csv
+DEMO_SCENE := data_samples/horsdal_large.toml
+
 demo: install
-	$(BIN)/trebuchet demo
+	$(BIN)/trebuchet compare $(DEMO_LOG) --scene $(DEMO_SCENE) -o demo_report
+	@echo "Report: $(CURDIR)/demo_report/index.html"
 
 test: install-test
 	$(BIN)/ruff check .

@@ -21,6 +21,7 @@ ROOMS = (
     "trebuchet.model.report_cli",
     "trebuchet.model.sweep_cli",
     "trebuchet.ingest.cli",
+    "trebuchet.ingest.compare_cli",
     "trebuchet.fmu.cli",
 )
 
