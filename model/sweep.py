@@ -50,7 +50,7 @@ from trebuchet.errors import TrebuchetInputError
 from .dynamics import trough_sling_angle
 from .scene import _SECTIONS as SCENE_KEYS  # the scene parser's own list of keys
 from .scene import Scene, default_moment_of_inertia
-from .simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
+from .simulate import resolve_rtol, simulate
 
 __all__ = [
     "SUMMARY_COLUMNS",
@@ -93,11 +93,21 @@ _ANGLE_PAIRS = {"theta": "theta_deg", "psi": "psi_deg", "phi": "phi_deg",
 @dataclass(frozen=True)
 class SimulationOptions:
     """Arguments passed to :func:`trebuchet.model.simulate.simulate` for every design:
-    tolerance ``rtol``, output step ``dt`` (s) and ``after_release`` (s of phase III)."""
+    tolerance ``rtol`` (a number or a preset name of ``simulate.ACCURACY``), output step ``dt``
+    (s) and ``after_release`` (s of phase III; None: simulate's default)."""
 
-    rtol: float = DEFAULT_RTOL
+    rtol: float | str = "default"
     dt: float = 1e-3
-    after_release: float = DEFAULT_AFTER_RELEASE
+    after_release: float | None = None
+
+    def check(self) -> None:
+        """Raise TrebuchetInputError for options no design could run with."""
+        resolve_rtol(self.rtol)
+        if not self.dt > 0.0:
+            raise TrebuchetInputError(f"dt = {self.dt:g} s: must be positive")
+        if self.after_release is not None and not self.after_release >= 0.0:
+            raise TrebuchetInputError(f"after_release = {self.after_release:g} s: must not be "
+                                      "negative")
 
 
 # --------------------------------------------------------------------------- grid
@@ -147,9 +157,10 @@ def parse_grid_option(text: str) -> tuple[str, tuple[float, ...]]:
     return key, parse_grid_values(values, where=f"--grid {key}")
 
 
-def check_grid(grid: Mapping[str, Iterable[float]]) -> dict[str, tuple[float, ...]]:
+def check_grid(grid: Mapping[str, Iterable[float | str]]) -> dict[str, tuple[float | str, ...]]:
     """The grid with its keys checked against the scene file's keys and its values as
-    tuples of finite floats. A bad key raises :class:`TrebuchetInputError` naming it."""
+    tuples of finite floats (words, for the scene's word-valued keys, pass through to the
+    scene's validation). A bad key raises :class:`TrebuchetInputError` naming it."""
     if not grid:
         raise TrebuchetInputError("grid: empty (name at least one scene key, e.g. engine.M)")
     out: dict[str, tuple[float, ...]] = {}
@@ -162,8 +173,11 @@ def check_grid(grid: Mapping[str, Iterable[float]]) -> dict[str, tuple[float, ..
         vals = tuple(values) if not isinstance(values, str | bytes) else (values,)
         if not vals:
             raise TrebuchetInputError(f"grid key {key!r}: no values")
-        clean = []
+        clean: list[float | str] = []
         for v in vals:
+            if isinstance(v, str):  # word-valued keys (engine.counterweight = "fixed")
+                clean.append(v)
+                continue
             if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating):
                 raise TrebuchetInputError(f"grid key {key!r}: value {v!r} is not a number")
             if not math.isfinite(float(v)):
@@ -192,14 +206,15 @@ def grid_designs(grid: Mapping[str, Sequence[float]]) -> list[dict[str, float]]:
 # --------------------------------------------------------------------------- one design
 
 
-def design_scene(base: Scene, params: Mapping[str, float], source: str | None = None) -> Scene:
+def design_scene(base: Scene, params: Mapping[str, float | str],
+                 source: str | None = None) -> Scene:
     """The base scene with the design's values put in (see the module doc for the quantities
     that follow them), validated by ``Scene.from_dict``; raises TrebuchetInputError."""
     data = base.to_dict()
     e, s = base.engine, base.start
     for key, value in params.items():
         section, _, name = key.partition(".")
-        sec = data[section]
+        sec = data.setdefault(section, {})
         if section == "release" and key in _RELEASE_KEYS:
             sec.clear()
         sec.pop(_ANGLE_PAIRS.get(name, ""), None)
@@ -212,7 +227,8 @@ def design_scene(base: Scene, params: Mapping[str, float], source: str | None = 
     if "engine.H" not in params and math.isclose(
             s.H, -e.L1 * math.sin(s.theta), rel_tol=1e-12, abs_tol=1e-12 * e.L1):
         eng.pop("H")
-    if not any(k in params for k in ("start.phi", "start.phi_deg")):
+    in_trough = params.get("start.projectile", getattr(base, "projectile", "trough")) == "trough"
+    if in_trough and not any(k in params for k in ("start.phi", "start.phi_deg")):
         _put_projectile_in_trough(data, base)
     return Scene.from_dict(data, source=source or base.source)
 
@@ -385,6 +401,7 @@ def sweep(base: Scene, grid: Mapping[str, Sequence[float]], *,
     the ``outputs`` (SI units, see :data:`SUMMARY_COLUMNS`; NaN where the design did not run).
     """
     grid = check_grid(grid)
+    options.check()
     outputs = tuple(outputs)
     unknown = [k for k in outputs if k not in SUMMARY_COLUMNS]
     if unknown:

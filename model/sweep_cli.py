@@ -17,7 +17,7 @@ from trebuchet.errors import TrebuchetInputError
 from trebuchet.output import write_csv
 
 from .scene import Scene
-from .simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL
+from .simulate import ACCURACY
 from .sweep import STATUS_OK, SimulationOptions, parse_grid_option, sweep
 
 
@@ -38,12 +38,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on a Dask cluster at ADDRESS (tcp://host:port; needs dask)")
     p.add_argument("--dt", type=float, default=1e-3, help="output step in s (default 0.001)")
-    p.add_argument("--rtol", type=float, default=DEFAULT_RTOL,
-                   help=f"integrator tolerance (default {DEFAULT_RTOL:g})")
-    p.add_argument("--after-release", type=float, default=DEFAULT_AFTER_RELEASE,
-                   help=f"s of phase III to simulate (default {DEFAULT_AFTER_RELEASE:g})")
+    p.add_argument("--rtol", type=_tolerance, default="default",
+                   help="integrator tolerance: a number or " + ", ".join(ACCURACY)
+                        + f" (default: default = {ACCURACY['default']:g})")
+    p.add_argument("--after-release", type=float, default=None,
+                   help="s of phase III to simulate (default: simulate's)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=_sweep)
+
+
+def _tolerance(text: str) -> float | str:
+    """``--rtol``: a preset name or a number."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
 
 
 def _sweep(args: argparse.Namespace) -> int:
@@ -55,10 +64,9 @@ def _sweep(args: argparse.Namespace) -> int:
         grid[key] = values
     if args.workers is not None and args.workers < 1:
         raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
-    if not args.dt > 0:
-        raise TrebuchetInputError(f"--dt {args.dt:g}: must be positive")
-    base = Scene.from_toml(args.scene)
     options = SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release)
+    options.check()
+    base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
     table = sweep(base, grid, executor=args.scheduler, workers=args.workers,
                   progress=not args.quiet, options=options)

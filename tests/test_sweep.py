@@ -185,6 +185,21 @@ def test_output_selection(horsdal):
         sweep(horsdal, {"engine.m": [90.0]}, outputs=["reach"], progress=False)
 
 
+@pytest.mark.parametrize("options", [SimulationOptions(rtol=1.0), SimulationOptions(rtol="sloppy"),
+                                     SimulationOptions(dt=0.0),
+                                     SimulationOptions(after_release=-1.0)])
+def test_bad_options_refused_before_any_design(horsdal, options):
+    with pytest.raises(TrebuchetInputError):
+        sweep(horsdal, {"engine.m": [90.0]}, workers=1, progress=False, options=options)
+
+
+def test_word_valued_key(horsdal):
+    table = sweep(horsdal, {"engine.counterweight": ["hinged", "swinging"]}, workers=1,
+                  progress=False, options=FAST)
+    assert table["status"].iloc[0] == "ok"
+    assert table["status"].iloc[1] == "refused" and "counterweight" in table["error"].iloc[1]
+
+
 def test_dask_cluster_gives_identical_rows(serial_2x2, angle_base):
     distributed = pytest.importorskip("dask.distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
@@ -236,7 +251,7 @@ def test_cli_writes_table(main, tmp_path, capsys):
     out = tmp_path / "sweep.csv"
     status = main(["sweep", str(HORSDAL), "--grid", "engine.M=100,19100", "--grid",
                    "release.velocity_angle_deg=35:45:2", "-o", str(out), "--workers", "1",
-                   "--dt", "0.005", "--quiet"])
+                   "--dt", "0.005", "--rtol", "fast", "--quiet"])
     assert status == 0
     table = pd.read_csv(out, keep_default_na=False, na_values=[""])
     assert len(table) == 4
