@@ -34,6 +34,7 @@ test: install-test
 
 bench: install-test
 	$(BIN)/python -m bench
+	$(BIN)/python docs/update_readme.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info

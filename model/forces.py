@@ -236,7 +236,9 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
         out[f"{name}_abs"] = np.hypot(out[f"{name}_x"], out[f"{name}_y"])
     columns = {name: angles[name].to_numpy() for name in angles.columns}
     columns.update(out)
-    return pd.DataFrame(columns, index=angles.index)
+    from .frames import frame  # one float block: the same frame as pd.DataFrame, faster
+
+    return frame(columns, index=angles.index)
 
 
 def _in_flight(angles: pd.DataFrame, r_m: np.ndarray, v_m: np.ndarray, held: np.ndarray,

@@ -77,18 +77,23 @@ class Trajectory:
             raise TrebuchetInputError(f"t_eval must lie within [0, {self.t_end:.6g}] s (the "
                                       "simulated shot); ask for a longer phase III with "
                                       "after_release=")
+        from .frames import frame
+
         e, g, H = self.scene.engine, self.scene.g, self.scene.start.H
+        names = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "psi_dd",
+                 "phi_dd")
         n = t.size
-        cols = {k: np.full(n, np.nan) for k in
-                ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d",
-                 "theta_dd", "psi_dd", "phi_dd")}
+        block = np.full((len(names), n), np.nan)
         phase = np.zeros(n, dtype=np.int64)
-        lower = -np.inf
-        for p in self.phases:
-            sel = (t > lower) & (t <= p.t1) if p is not self.phases[0] else (t <= p.t1)
-            lower = p.t1
-            if not sel.any():
+        # phase k takes (t1 of phase k-1, t1 of phase k]; the first also t <= its t1
+        which = np.minimum(np.searchsorted([p.t1 for p in self.phases], t, side="left"),
+                           len(self.phases) - 1)
+        for k, p in enumerate(self.phases):
+            sel = np.flatnonzero(which == k)
+            if not sel.size:
                 continue
+            if sel[-1] - sel[0] + 1 == sel.size:  # sorted times: a slice, no gather
+                sel = slice(int(sel[0]), int(sel[-1]) + 1)
             phase[sel] = p.phase
             y = p.sol(t[sel])
             if p.phase == 1:
@@ -102,11 +107,9 @@ class Trajectory:
                 th, ps, th_d, ps_d = y
                 th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
                 ph = ph_d = ph_dd = np.nan
-            for k, v in (("theta", th), ("psi", ps), ("phi", ph), ("theta_d", th_d),
-                         ("psi_d", ps_d), ("phi_d", ph_d), ("theta_dd", th_dd),
-                         ("psi_dd", ps_dd), ("phi_dd", ph_dd)):
-                cols[k][sel] = v
-        return pd.DataFrame({"t": t, "phase": phase, **cols})
+            for row, v in enumerate((th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd)):
+                block[row, sel] = v
+        return frame({"t": t, "phase": phase, **dict(zip(names, block, strict=True))})
 
 
 def _rhs_phase1(scene: Scene) -> Callable[[float, Sequence[float]], list[float]]:
@@ -204,8 +207,16 @@ def _velocity_angle_event(scene: Scene, angle: float) -> Callable:
 
 def _solve(rhs: Callable, t0: float, t1: float, y0: Sequence[float], events: list[Callable],
            rtol: float, method: str) -> Any:
-    return solve_ivp(rhs, (t0, t1), y0, method=method, rtol=rtol, atol=rtol * 1e-2,
-                     dense_output=True, events=events or None)
+    """DOP853 (default): the lean integrator of :mod:`trebuchet.model.integrator`, the same
+    method as scipy's at a fraction of the overhead; ``"scipy-DOP853"`` or any other
+    ``solve_ivp`` method name: ``scipy.integrate.solve_ivp``."""
+    if method == "DOP853":
+        from .integrator import solve
+
+        return solve(rhs, (t0, t1), y0, rtol=rtol, atol=rtol * 1e-2, dense_output=True,
+                     events=events)
+    return solve_ivp(rhs, (t0, t1), y0, method=method.removeprefix("scipy-"), rtol=rtol,
+                     atol=rtol * 1e-2, dense_output=True, events=events or None)
 
 
 def resolve_rtol(rtol: float | str) -> float:
