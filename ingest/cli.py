@@ -1,0 +1,164 @@
+"""Sub-command of the ingest room: ``trebuchet forces LOG --scene SCENE -o loads.csv``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import warnings
+
+import numpy as np
+import pandas as pd
+
+from trebuchet.errors import TrebuchetInputError
+from trebuchet.output import write_csv
+
+from .reconstruct import FORMS, TROUGH, reconstruct
+
+__all__ = ["register", "forces_summary", "parse_pairs"]
+
+ANGLE_NAMES = ("theta", "psi", "phi")
+POINT_ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
+SUMMARY_LOADS = (("F_R_abs", "|F_R|", "N"), ("F_H_abs", "|F_H|", "N"),
+                 ("F_S_abs", "|F_S|", "N"), ("torque", "torque", "N m"))
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "forces", help="internal forces, with their sd, from a video angle log",
+        description="Read an angle log, smooth it, find trigger, lift-off and release, and "
+                    "write every force, torque and power with its standard deviation.")
+    p.add_argument("log", help="angle log (generic CSV, Tracker, Kinovea or DeepLabCut)")
+    p.add_argument("--scene", required=True, help="scene file (TOML) of the engine filmed")
+    p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.add_argument("--fps", type=float, help="frame rate, for logs with frame numbers only")
+    p.add_argument("--column", action="append", default=[], metavar="NAME=ANGLE",
+                   help="the file's column or track NAME holds ANGLE (theta, psi or phi); "
+                        "repeatable")
+    p.add_argument("--point", action="append", default=[], metavar="ROLE=NAME",
+                   help="the file's point NAME is ROLE (pivot, spigot, hinge, counterweight, "
+                        "projectile); repeatable")
+    p.add_argument("--form", choices=FORMS, default=None,
+                   help="force formulas: projected on the arms (default) or the paper's direct")
+    p.add_argument("--trough", choices=TROUGH, default=None,
+                   help="phase-I sling angle from the trough constraint (default) or measured")
+    for event in ("trigger", "lift-off", "release"):
+        p.add_argument(f"--{event}", metavar="SECONDS",
+                       help=f"{event} time in the log's time (s), or 'none'; default: found "
+                            "in the data")
+    p.set_defaults(run=_forces)
+
+
+def parse_pairs(items: list[str], option: str, allowed: tuple[str, ...],
+                value_side: str) -> dict[str, str] | None:
+    """``["NAME=theta", ...]`` as ``{NAME: "theta"}`` (``value_side="right"``: the allowed
+    word is right of ``=``) or ``["pivot=NAME"]`` as ``{"pivot": NAME}`` (``"left"``)."""
+    if not items:
+        return None
+    out: dict[str, str] = {}
+    for item in items:
+        if "=" not in item:
+            raise TrebuchetInputError(f"{option} {item!r}: expected "
+                                      + ("NAME=ANGLE" if value_side == "right" else "ROLE=NAME"))
+        if value_side == "right":
+            name, word = item.rsplit("=", 1)
+            key, value = name.strip(), word.strip()
+            check = value
+        else:
+            word, name = item.split("=", 1)
+            key, value = word.strip(), name.strip()
+            check = key
+        if check not in allowed:
+            raise TrebuchetInputError(f"{option} {item!r}: {check!r} is not one of "
+                                      + ", ".join(allowed))
+        if not (key and value):
+            raise TrebuchetInputError(f"{option} {item!r}: a name is missing")
+        out[key] = value
+    return out
+
+
+def _event_args(args: argparse.Namespace) -> dict[str, float | None] | None:
+    events: dict[str, float | None] = {}
+    for name in ("trigger", "lift_off", "release"):
+        value = getattr(args, name)
+        if value is None:
+            continue
+        if value.strip().lower() == "none":
+            events[name] = None
+            continue
+        try:
+            events[name] = float(value)
+        except ValueError:
+            raise TrebuchetInputError(f"--{name.replace('_', '-')} {value!r}: not a time in s "
+                                      "(or 'none')") from None
+        if not math.isfinite(events[name]):
+            raise TrebuchetInputError(f"--{name.replace('_', '-')} {value!r}: not finite")
+    return events or None
+
+
+def _fmt_time(value: float | None, sd: float | None = None) -> str:
+    if value is None:
+        return "none"
+    text = f"{value:.4f} s"
+    if sd is not None and np.isfinite(sd) and sd > 0:
+        text += f" ± {sd:.4f}"
+    return text
+
+
+def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
+    """The summary the command prints: log, noise per angle, events, repairs, peak loads
+    with their sd, advisories and validity findings."""
+    a = result.attrs
+    lines = [f"log: {a.get('source', 'log')} ({a.get('format', 'table')}), {len(result)} rows, "
+             f"{a.get('fps', float('nan')):.4g} fps; formulas: {a.get('form')}"]
+    noise = a.get("noise", {})
+    if noise:
+        parts = [f"{k} {math.degrees(v['r_sd']):.3g}°" for k, v in noise.items()]
+        lines.append("angle noise (sd, maximum likelihood): " + ", ".join(parts))
+    ev, sd, src = a["events"], a.get("event_sd", {}), a.get("event_sources", {})
+    lines.append("events (log time):")
+    for key, label in (("trigger", "trigger"), ("lift_off", "lift-off"), ("release", "release")):
+        lines.append(f"  {label:9s}{_fmt_time(ev.get(key), sd.get(key))}"
+                     f"  ({src.get(key, '')})")
+    repairs = a.get("repairs", [])
+    lines.append("repairs:" + (" none" if not repairs else ""))
+    lines += [f"  {r}" for r in repairs]
+    lines.append("peak loads (sd at the peak):")
+    moving = result["phase"].to_numpy() > 0
+    t = result["t"].to_numpy()
+    for col, label, unit in SUMMARY_LOADS:
+        v = np.abs(result[col].to_numpy())
+        ok = moving & np.isfinite(v)
+        if not ok.any():
+            continue
+        i = np.flatnonzero(ok)[np.argmax(v[ok])]
+        lines.append(f"  {label:7s}{v[i]:11.4g} ± {result[col + '_sd'].to_numpy()[i]:.3g} "
+                     f"{unit} at t = {t[i]:.4f} s")
+    for key, title in (("advisories", "resolution advisory"), ("validity", "model validity")):
+        items = a.get(key, [])
+        if items:
+            lines.append(f"{title}:")
+            lines += [f"  {it['message'] if isinstance(it, dict) else it}" for it in items]
+    if output:
+        lines.append(f"-> {output} ({result.shape[1]} columns)")
+    return "\n".join(lines)
+
+
+def _forces(args: argparse.Namespace) -> int:
+    columns = parse_pairs(args.column, "--column", ANGLE_NAMES, "right")
+    points = parse_pairs(args.point, "--point", POINT_ROLES, "left")
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
+        raise TrebuchetInputError(f"--fps {args.fps:g}: must be a positive frame rate")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = reconstruct(args.log, args.scene, fps=args.fps, columns=columns, points=points,
+                             events=_event_args(args), form=args.form, trough=args.trough)
+    write_csv(result, args.output)
+    summary = forces_summary(result, args.output)
+    print(summary)
+    for w in caught:  # what the summary does not already say
+        text = str(w.message)
+        if not any(part.strip() in text for part in summary.splitlines()[1:]
+                   if len(part.strip()) > 20):
+            print(f"trebuchet: warning: {text}", file=sys.stderr)
+    return 0

@@ -1,0 +1,425 @@
+"""Internal forces from a video log: read, smooth, apply the model's force functions.
+
+``reconstruct(log, scene)`` = :func:`~trebuchet.ingest.read_log.read_log` +
+:func:`~trebuchet.ingest.smooth.smooth` + :func:`trebuchet.model.forces.loads` on the
+smoothed state, with
+
+- **events** in the log's time: the trigger and release from the smoother, lift-off where
+  the reconstructed trough normal force reaches zero (:mod:`.lift_off`); each may be
+  given instead (``events={"trigger": s, "lift_off": s, "release": s}``, None = no such
+  event);
+- **phases**: 0 at rest before the trigger (an extension of the contract: the static
+  loads with the beam held by the trigger, whose own force is not modelled, so
+  ``torque`` there is the torque the trigger holds), 1 trough, 2 sling, 3 released;
+- **forms**: ``"projected"`` (default) takes F_H along the counterweight arm and F_S along
+  the sling, free of ψ̈ and φ̈; ``"direct"`` the paper's eqs. (11), (13). In phase I the
+  sling angle is by default taken from θ through the trough constraint
+  (``trough="constraint"``; ``"measured"`` uses the smoothed φ);
+- **uncertainty**: every load's sd from the smoother's full per-angle covariance
+  (:mod:`.uncertainty`), plus, on the frames next to a detected trigger or release, the
+  chance that the frame lies in the other phase (the event time's sd is
+  ``event_sd_frames`` frames);
+- **checks**: angles that leave the scene's geometry and a slack sling
+  (:mod:`.scene_fit`), and the resolution advisory (:mod:`.advisory`), both as
+  :class:`~trebuchet.errors.ModelValidityWarning` and in ``attrs``.
+
+Measured accuracy of both forms and the bands' coverage: ``bench/ingest_accuracy.py``.
+Units: SI (s, rad, rad/s, rad/s², N, N m, W, J, m, m/s).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.special import ndtr
+
+from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.model import dynamics as dyn
+from trebuchet.model.forces import loads
+from trebuchet.model.scene import Scene
+
+from .advisory import resolution_advisories
+from .lift_off import lift_off_sd, lift_off_time
+from .scene_fit import geometry_findings, warn_findings
+from .smooth import ANGLES, SUFFIXES, SmoothSettings, smooth
+from .uncertainty import propagate
+
+__all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
+           "STATE_COLUMNS", "FORMS"]
+
+FORMS = ("projected", "direct")
+TROUGH = ("constraint", "measured")
+STATE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES]
+DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
+EVENT_KEYS = ("trigger", "lift_off", "release")
+
+
+@dataclass(frozen=True)
+class ReconstructOptions:
+    """Settings of :func:`reconstruct`.
+
+    ``form``: "projected" or "direct" (see the module doc). ``trough``: "constraint" or
+    "measured" φ in phase I. ``event_sd_frames``: sd of a detected trigger or release time,
+    in frames (a given event is exact). ``resolution_fraction``: the advisory speaks where
+    a load's sd exceeds this fraction of its peak. ``model``: the smoother's model ("ca"
+    or "cj"); ``smooth``: its settings.
+    """
+
+    form: str = "projected"
+    trough: str = "constraint"
+    event_sd_frames: float = 0.5
+    resolution_fraction: float = 0.1
+    model: str = "ca"
+    smooth: SmoothSettings | None = None
+
+    def __post_init__(self) -> None:
+        if self.form not in FORMS:
+            raise TrebuchetInputError(f"reconstruct: form must be one of {FORMS}, "
+                                      f"not {self.form!r}")
+        if self.trough not in TROUGH:
+            raise TrebuchetInputError(f"reconstruct: trough must be one of {TROUGH}, "
+                                      f"not {self.trough!r}")
+        if not (np.isfinite(self.event_sd_frames) and self.event_sd_frames >= 0):
+            raise TrebuchetInputError("reconstruct: event_sd_frames must be ≥ 0")
+
+
+# ----------------------------------------------------------------------------- phases
+
+
+def shot_phases(t: np.ndarray, scene: Scene, trigger: float | None, lift_off: float | None,
+                release: float | None) -> np.ndarray:
+    """Phase of each row (int): 0 at rest (``t ≤ trigger``), then the scene's phases: 1 in
+    the trough until ``lift_off``, 2 in the sling until ``release``, 3 after (times in s,
+    the log's time; None = no such event in the log)."""
+    t = np.asarray(t, dtype=float)
+    first = scene.phases[0]
+    phase = np.full(t.size, first, dtype=np.int64)
+    if first == 1 and lift_off is not None:
+        phase[t > lift_off] = 2
+    if first != 3 and release is not None:
+        phase[t > release] = 3
+    if trigger is not None:
+        phase[t <= trigger] = 0
+    return phase
+
+
+def _evaluate(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
+              trough: str) -> pd.DataFrame:
+    """``loads`` on ``state`` with rest rows (phase 0) as the scene's first phase at zero
+    rates and accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ
+    in the trough."""
+    frame = state.copy()
+    rest = phase == 0
+    first = scene.phases[0]
+    run_phase = np.where(rest, first, phase)
+    if rest.any():
+        for col in DERIVATIVE_COLUMNS:
+            frame.loc[rest, col] = 0.0
+    if trough == "constraint" and first == 1:
+        sel = run_phase == 1
+        if sel.any():
+            e, H = scene.engine, scene.start.H
+            th = frame["theta"].to_numpy()[sel]
+            th_d = frame["theta_d"].to_numpy()[sel]
+            th_dd = frame["theta_dd"].to_numpy()[sel]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ph = dyn.trough_sling_angle(th, e, H)
+                ph_d = dyn.trough_phi_d(th, ph, th_d, e)
+                ph_dd = dyn.trough_phi_dd(th, ph, th_d, ph_d, th_dd, e)
+            for col, v in (("phi", ph), ("phi_d", ph_d), ("phi_dd", ph_dd)):
+                values = frame[col].to_numpy(dtype=float, copy=True)
+                values[sel] = v
+                frame[col] = values
+    frame["phase"] = run_phase
+    try:
+        out = loads(frame, scene, form=form)
+    except ValueError as exc:  # phase-3 rows without a sling row before them
+        raise TrebuchetInputError(f"reconstruct: {exc}") from None
+    out["phase"] = phase
+    return out
+
+
+def _state(est: pd.DataFrame) -> pd.DataFrame:
+    """A plain frame (no attrs: pandas copies attrs on every operation) of t and the nine
+    smoothed quantities."""
+    cols = {"t": est["t"].to_numpy(dtype=float)}
+    cols |= {c: est[c].to_numpy(dtype=float) for c in STATE_COLUMNS}
+    return pd.DataFrame(cols)
+
+
+def _release_within_sling_track(t: np.ndarray, phi: np.ndarray, release: float) -> float:
+    """A detected release (s) no later than halfway from the sling track's last frame to
+    the next one: a row after the track ends has no sling angle, so it is released."""
+    ok = np.flatnonzero(np.isfinite(phi))
+    if ok.size == 0 or ok[-1] >= t.size - 1:
+        return release
+    last = int(ok[-1])
+    return float(min(release, 0.5 * (t[last] + t[last + 1])))
+
+
+def _event_variance(t: np.ndarray, event: float | None, sd: float,
+                    values: np.ndarray) -> np.ndarray:
+    """Variance (n, m) from the chance that a row lies on the other side of an event whose
+    time (s) has sd ``sd`` (s): ``P(other side) × (load across the event − load)²``, the
+    load across the event taken from the nearest row on the other side."""
+    var = np.zeros_like(values)
+    if event is None or not sd > 0:
+        return var
+    after = t > event
+    if after.all() or not after.any():
+        return var
+    i_before = int(np.flatnonzero(~after)[-1])
+    i_after = int(np.flatnonzero(after)[0])
+    near = np.abs(t - event) < 6.0 * sd
+    p_after = ndtr((t - event) / sd)
+    p_other = np.where(after, 1.0 - p_after, p_after)
+    other = np.where(after[:, None], values[i_before][None, :], values[i_after][None, :])
+    diff = np.nan_to_num(other - values)
+    var[near] = p_other[near, None] * diff[near] ** 2
+    return var
+
+
+# ----------------------------------------------------------------------------- main
+
+
+def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
+                     trigger: float | None, release: float | None,
+                     options: ReconstructOptions) -> tuple[float | None, float]:
+    """Lift-off (s, log time) and its sd (s) from the phase-I normal force on every row."""
+    t = state["t"].to_numpy()
+    trial = shot_phases(t, scene, trigger, None, None)
+    trial[trial == 3] = 1
+    fn = _evaluate(state, trial, scene, options.form, options.trough)["F_N"].to_numpy()
+    when = lift_off_time(t, fn, trigger, release)
+    if when is None:
+        return None, float("nan")
+    i = int(np.clip(np.searchsorted(t, when), 1, t.size - 1))
+    rows = np.arange(max(i - 1, 0), min(i + 1, t.size))
+    sub = state.iloc[rows].reset_index(drop=True)
+    sub_cov = {a: c[rows] for a, c in cov.items()}
+    prop = propagate(lambda s: _evaluate(s, trial[rows], scene, options.form, options.trough),
+                     sub, sub_cov, ["F_N"])
+    return when, lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
+
+
+def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
+                        events: Mapping[str, float | None] | None = None,
+                        options: ReconstructOptions | None = None) -> pd.DataFrame:
+    """Every load and its sd from the output of :func:`~trebuchet.ingest.smooth.smooth`.
+
+    ``events``: given event times (s, log time; None = no such event) overriding those in
+    ``est.attrs["events"]`` and the lift-off detection. Returns the frame of
+    :func:`reconstruct` (without the log's own attrs).
+    """
+    options = options or ReconstructOptions()
+    given = dict(events or {})
+    t = est["t"].to_numpy(dtype=float)
+    state = _state(est)
+    cov = {a: np.asarray(c, dtype=float) for a, c in est.attrs["cov"].items()}
+    cov = {a: c[:, :3, :3] for a, c in cov.items()}
+    found = dict(est.attrs.get("events", {}))
+    sources = dict(est.attrs.get("event_sources", {}))
+    trigger = given["trigger"] if "trigger" in given else found.get("trigger")
+    release = given["release"] if "release" in given else found.get("release")
+    if scene.projectile == "none":
+        release = None
+    elif release is not None and "release" not in given:
+        release = _release_within_sling_track(t, est["phi"].to_numpy(dtype=float), release)
+    fps = 1.0 / float(np.median(np.diff(t)))
+    sd_event = options.event_sd_frames / fps
+    event_sd = {"trigger": 0.0 if "trigger" in given or trigger is None else sd_event,
+                "release": 0.0 if "release" in given or release is None else sd_event}
+    lift = None
+    event_sd["lift_off"] = float("nan")
+    if scene.projectile == "trough":
+        if "lift_off" in given:
+            lift = given["lift_off"]
+            sources["lift_off"] = "given" if lift is not None else "given as none"
+            event_sd["lift_off"] = 0.0
+        else:
+            lift, event_sd["lift_off"] = _detect_lift_off(state, cov, scene, trigger, release,
+                                                          options)
+            sources["lift_off"] = ("trough normal force reaches zero" if lift is not None
+                                   else "the normal force never reaches zero before release")
+    else:
+        sources["lift_off"] = f"no trough (projectile {scene.projectile!r})"
+    phase = shot_phases(t, scene, trigger, lift, release)
+
+    prop = propagate(lambda s: _evaluate(s, phase, scene, options.form, options.trough),
+                     state, cov)
+    ev_var = (_event_variance(t, trigger, event_sd["trigger"], prop.value)
+              + _event_variance(t, release, event_sd["release"], prop.value))
+    sd = np.sqrt(prop.sd ** 2 + ev_var)
+
+    t_shot = t - (trigger if trigger is not None else t[0])
+    out: dict[str, np.ndarray] = {"t": t, "t_shot": t_shot, "phase": phase}
+    for c in STATE_COLUMNS:  # the smoothed angles (phase-I loads may use φ from θ)
+        out[c] = state[c].to_numpy()
+    for j, c in enumerate(prop.names):
+        out[c] = prop.value[:, j]
+    for c in STATE_COLUMNS:
+        out[c + "_sd"] = est[c + "_sd"].to_numpy(dtype=float)
+    for j, c in enumerate(prop.names):
+        out[c + "_sd"] = sd[:, j]
+    result = pd.DataFrame(out, index=est.index)
+
+    notes = list(est.attrs.get("notes", []))
+    if trigger is None:
+        notes.append("no rest found at the start: t_shot counts from the first frame")
+    moving = phase > 0
+    noise = est.attrs.get("noise", {})
+    noise_deg = float(np.degrees(np.median([v["r_sd"] for v in noise.values()]))) \
+        if noise else float("nan")
+    col = {c: j for j, c in enumerate(prop.names)}
+    advice = resolution_advisories(
+        t, moving, {c: prop.value[:, j] for c, j in col.items()},
+        {c: sd[:, j] for c, j in col.items()}, {c: prop.by_order[:, :, j] for c, j in col.items()},
+        {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
+        options.resolution_fraction)
+    validity = geometry_findings(t, phase, result["theta"].to_numpy(), result["psi"].to_numpy(),
+                                 result["phi"].to_numpy(), scene,
+                                 tension=result["sling_tension"].to_numpy(),
+                                 tension_sd=result["sling_tension_sd"].to_numpy())
+    result.attrs.update({
+        "events": {"trigger": trigger, "lift_off": lift, "release": release},
+        "event_sd": event_sd,
+        "event_sources": sources,
+        "noise": noise,
+        "form": options.form,
+        "trough": options.trough,
+        "model": est.attrs.get("model"),
+        "fps": fps,
+        "advisories": [dataclasses.asdict(a) | {"rows": list(a.rows)} for a in advice],
+        "validity": validity,
+        "notes": notes,
+    })
+    return result
+
+
+def _log_frame(path_or_log, fps, columns, points, min_likelihood) -> pd.DataFrame:
+    if isinstance(path_or_log, pd.DataFrame):
+        if points is not None:
+            raise TrebuchetInputError("reconstruct: points= needs a log file of point "
+                                      "positions, not a table of angles")
+        log = path_or_log.copy()
+        if columns:
+            log = log.rename(columns=dict(columns))
+        if "t" not in log.columns and "frame" in log.columns and fps:
+            log.insert(0, "t", log["frame"].to_numpy(dtype=float) / float(fps))
+        return log
+    if isinstance(path_or_log, str | Path):
+        from .read_log import read_log
+
+        return read_log(path_or_log, fps=fps, columns=columns, points=points,
+                        min_likelihood=min_likelihood)
+    raise TrebuchetInputError("reconstruct: expected a log file path or a DataFrame, got "
+                              f"{type(path_or_log).__name__}")
+
+
+def _scene(scene: Scene | str | Path) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, str | Path):
+        return Scene.from_toml(scene)
+    raise TrebuchetInputError(f"reconstruct: expected a Scene or a scene file, got "
+                              f"{type(scene).__name__}")
+
+
+def _given_events(events: Mapping[str, float | None] | None, source: str
+                  ) -> dict[str, float | None]:
+    if events is None:
+        return {}
+    if not isinstance(events, Mapping):
+        raise TrebuchetInputError(f"{source}: events must be a dict like "
+                                  "{'trigger': s, 'lift_off': s, 'release': s}")
+    out: dict[str, float | None] = {}
+    for key, v in events.items():
+        if key not in EVENT_KEYS:
+            raise TrebuchetInputError(f"{source}: unknown event {key!r} (known: "
+                                      + ", ".join(EVENT_KEYS) + ")")
+        if v is None:
+            out[key] = None
+            continue
+        try:
+            out[key] = float(v)
+        except (TypeError, ValueError):
+            raise TrebuchetInputError(f"{source}: events[{key!r}] = {v!r} is not a time "
+                                      "in s") from None
+    return out
+
+
+def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Path,
+                fps: float | None = None, columns: Mapping[str, str] | None = None,
+                points: Mapping[str, str] | None = None, *,
+                events: Mapping[str, float | None] | None = None,
+                form: str | None = None, trough: str | None = None,
+                q: float | Mapping[str, float] | None = None,
+                r: float | Mapping[str, float] | None = None,
+                min_likelihood: float = 0.9,
+                options: ReconstructOptions | None = None) -> pd.DataFrame:
+    """Loads of a filmed shot with their standard deviations.
+
+    Parameters
+    ----------
+    path_or_log : a log file (any format :func:`~trebuchet.ingest.read_log.read_log`
+        reads) or a DataFrame with ``t`` (s) and ``theta``, ``psi``, ``phi`` (rad).
+    scene : the engine filmed (a :class:`~trebuchet.model.scene.Scene` or a scene file).
+    fps, columns, points, min_likelihood : as for ``read_log``.
+    events : ``{"trigger", "lift_off", "release"}`` in the log's time (s), overriding
+        detection; None = no such event in the log.
+    form : "projected" (default) or "direct"; trough : "constraint" (default) or
+        "measured" (see the module doc); they override ``options``.
+    q, r : the smoother's process noise and measurement noise sd (rad), per angle or one
+        number; default maximum likelihood.
+    options : :class:`ReconstructOptions`.
+
+    Returns
+    -------
+    DataFrame with the log's rows: ``t`` (s, the log's time), ``t_shot`` (s after the
+    detected trigger), ``phase`` (0 at rest, 1 trough, 2 sling, 3 released), the angles,
+    rates and accelerations, every column of :func:`trebuchet.model.forces.loads`, and
+    ``X_sd`` for each of them. ``attrs``: ``events`` (trigger, lift_off, release; log
+    time, s, or None), ``event_sd`` (s), ``event_sources``, ``noise`` (per angle: ``q``,
+    ``r_sd`` rad, …), ``form``, ``trough``, ``fps``, ``advisories`` (list of dicts:
+    quantity, peak, worst_sd, rows, fps_needed, noise_needed_deg, message), ``validity``
+    (sentences), ``notes``, and the log's ``source``, ``format``, ``repairs``,
+    ``columns``.
+
+    Raises
+    ------
+    TrebuchetInputError : a bad log, scene or option (the message names file, row or key).
+
+    Warns
+    -----
+    ModelValidityWarning : angles outside the scene's geometry, a slack sling, or loads
+        the frame rate and noise do not resolve (the advisory).
+    """
+    if options is None:
+        options = ReconstructOptions()
+    changes = {k: v for k, v in (("form", form), ("trough", trough)) if v is not None}
+    if changes:
+        options = dataclasses.replace(options, **changes)
+    scene = _scene(scene)
+    log = _log_frame(path_or_log, fps, columns, points, min_likelihood)
+    source = str(log.attrs.get("source", "log"))
+    given = _given_events(events, source)
+    smooth_events = {k: v for k, v in given.items() if k in ("trigger", "release")}
+    est = smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
+                 settings=options.smooth)
+    result = loads_from_smoothed(est, scene, events=given, options=options)
+    for key in ("source", "format", "repairs", "columns"):
+        if key in log.attrs:
+            result.attrs[key] = log.attrs[key]
+    name = Path(source).name
+    warn_findings(result.attrs["validity"], name)
+    advice = result.attrs["advisories"]
+    if advice:
+        warnings.warn(f"{name}: " + "; ".join(a["message"] for a in advice),
+                      ModelValidityWarning, stacklevel=2)
+    return result

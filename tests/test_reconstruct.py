@@ -1,0 +1,199 @@
+"""reconstruct(): events, phases, accuracy of both forms, honest bands, overrides, checks."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.ingest.reconstruct import ReconstructOptions, loads_from_smoothed, reconstruct
+from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.smooth import smooth
+from trebuchet.ingest.uncertainty import propagate
+from trebuchet.model.forces import LOAD_COLUMNS
+from trebuchet.model.scene import Scene
+
+FPS, NOISE = 240, 0.3
+SMALL = {
+    "engine": {"L1": 2.0, "L2": 0.5, "L_CM": 0.6, "L3": 0.5, "L4": 1.8, "m_b": 15.0,
+               "M": 100.0, "m": 1.0},
+    "start": {"theta_deg": -45.0, "psi_deg": -90.0, "phi_deg": -180.0},
+    "release": {"velocity_angle_deg": 45.0},
+    "environment": {"g": 9.81},
+}
+
+
+def _quiet(fn, *args, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return fn(*args, **kw)
+
+
+@pytest.fixture(scope="module")
+def paper_shot(horsdal):
+    log, truth = simulated_log(horsdal, FPS, NOISE, seed=11, drop_fraction=0.02, t0=5.0)
+    est = smooth(log)
+    res = {form: _quiet(loads_from_smoothed, est, horsdal,
+                        options=ReconstructOptions(form=form))
+           for form in ("projected", "direct")}
+    return log, truth, est, res
+
+
+def _moving(truth: pd.DataFrame, res: pd.DataFrame) -> np.ndarray:
+    return (truth["phase"].to_numpy() > 0) & np.isfinite(res["F_R_abs"].to_numpy())
+
+
+def _rms_rel(res, truth, col) -> float:
+    m = _moving(truth, res)
+    err = res[col].to_numpy()[m] - truth[col].to_numpy()[m]
+    return float(np.sqrt(np.mean(err**2)) / np.max(np.abs(truth[col].to_numpy()[m])))
+
+
+def _coverage(res, truth, col) -> float:
+    m = _moving(truth, res)
+    err = np.abs(res[col].to_numpy()[m] - truth[col].to_numpy()[m])
+    return float(np.mean(err <= 2 * res[col + "_sd"].to_numpy()[m]))
+
+
+def test_columns_time_and_phases(paper_shot, horsdal):
+    log, truth, _, res = paper_shot
+    r = res["projected"]
+    np.testing.assert_array_equal(r["t"], log["t"])  # the log's own time
+    trig = r.attrs["events"]["trigger"]
+    np.testing.assert_allclose(r["t_shot"], log["t"] - trig)
+    for col in ["theta", "psi_d", "phi_dd", *LOAD_COLUMNS, "F_N", "sling_tension"]:
+        assert col in r and col + "_sd" in r, col
+    phase = r["phase"].to_numpy()
+    assert set(np.unique(phase)) == {0, 1, 2, 3}
+    assert np.all(np.diff(phase) >= 0)
+    rest = phase == 0
+    assert np.all(r["t"].to_numpy()[rest] <= trig)
+    # at rest: no motion, the projectile lies in the trough with its whole weight
+    assert np.all(r.loc[rest, ["theta_d", "psi_dd"]].to_numpy() == 0.0)
+    e = horsdal.engine
+    np.testing.assert_allclose(r.loc[rest, "F_N"], e.m * horsdal.g, rtol=1e-9)
+    # phase 3: no sling force at all
+    assert np.all(r.loc[phase == 3, "F_S_abs"] == 0.0)
+
+
+def test_events_in_log_time_match_the_simulation(paper_shot):
+    _, truth, _, res = paper_shot
+    found, sd = res["projected"].attrs["events"], res["projected"].attrs["event_sd"]
+    true = truth.attrs["events"]
+    assert abs(found["trigger"] - true["trigger"]) * FPS < 3
+    assert abs(found["release"] - true["release"]) * FPS < 2
+    assert 0 < sd["lift_off"] < 0.05
+    assert abs(found["lift_off"] - true["lift_off"]) < 3 * sd["lift_off"] + 1 / FPS
+
+
+def test_projected_form_meets_targets_and_beats_direct(paper_shot):
+    _, truth, _, res = paper_shot
+    proj, direct = res["projected"], res["direct"]
+    for col in ("F_R_abs", "F_H_abs", "F_S_abs"):
+        assert _rms_rel(proj, truth, col) < 0.05, col
+        m = _moving(truth, proj)
+        peak_true = np.max(np.abs(truth[col].to_numpy()[m]))
+        assert abs(np.max(np.abs(proj[col].to_numpy()[m])) - peak_true) < 0.05 * peak_true
+    assert _rms_rel(proj, truth, "F_R_abs") <= _rms_rel(direct, truth, "F_R_abs")
+    assert _rms_rel(proj, truth, "torque") < _rms_rel(direct, truth, "torque")
+
+
+def test_bands_are_honest(paper_shot):
+    _, truth, _, res = paper_shot
+    for col in ("F_R_abs", "F_H_abs", "F_S_abs"):
+        cover = _coverage(res["projected"], truth, col)
+        assert 0.85 <= cover <= 0.995, (col, cover)
+
+
+def test_sd_bands_widen_at_the_release(paper_shot):
+    _, _, _, res = paper_shot
+    r = res["projected"]
+    rel = r.attrs["events"]["release"]
+    t = r["t"].to_numpy()
+    near = np.abs(t - rel) < 1.0 / FPS
+    sling = (r["phase"].to_numpy() == 2) & (t < rel - 0.05)
+    assert r["F_S_abs_sd"].to_numpy()[near].max() > 5 * np.median(r["F_S_abs_sd"][sling])
+
+
+def test_events_given_override_detection(horsdal):
+    log, truth = simulated_log(horsdal, 120, 0.3, seed=4)
+    true = truth.attrs["events"]
+    r = _quiet(reconstruct, log, horsdal, events=true)
+    assert r.attrs["events"] == {k: pytest.approx(v) for k, v in true.items()}
+    assert r.attrs["event_sources"]["lift_off"] == "given"
+    assert r.attrs["event_sd"]["trigger"] == 0.0 and r.attrs["event_sd"]["release"] == 0.0
+    t = r["t"].to_numpy()
+    np.testing.assert_array_equal(r["phase"].to_numpy(), truth["phase"].to_numpy()[:len(t)])
+    with pytest.raises(TrebuchetInputError, match="unknown event 'launch'"):
+        reconstruct(log, horsdal, events={"launch": 1.0})
+
+
+def test_propagation_is_exact_for_a_square():
+    """sd of y = x_d² for x_d ~ N(μ, σ²): var 4μ²σ² + 2σ⁴, bias σ²."""
+    mu, sig = np.array([0.0, 1.0, 3.0]), np.array([0.5, 0.2, 1.0])
+    state = pd.DataFrame({"t": [0.0, 1.0, 2.0], "theta": 0.0, "theta_d": mu, "theta_dd": 0.0})
+    cov = np.zeros((3, 3, 3))
+    cov[:, 1, 1] = sig**2
+    cov[:, 0, 0] = 1.0  # y does not depend on theta: no contribution
+
+    def square(s):
+        return pd.DataFrame({"y": s["theta_d"].to_numpy() ** 2})
+
+    p = propagate(square, state, {"theta": cov}, ["y"])
+    expected = np.sqrt(4 * mu**2 * sig**2 + 2 * sig**4 + sig**4)
+    np.testing.assert_allclose(p.sd[:, 0], expected, rtol=1e-12)
+
+
+def test_small_engine_at_low_frame_rate_gets_an_advisory():
+    scene = Scene.from_dict(SMALL, source="small")
+    log, _ = simulated_log(scene, 60, 1.0, seed=2)
+    with pytest.warns(ModelValidityWarning, match="exceeds 10% of its peak"):
+        r = reconstruct(log, scene)
+    adv = r.attrs["advisories"]
+    assert adv
+    for a in adv:
+        assert a["worst_sd"] > 0.1 * a["peak"]
+        assert a["fps_needed"] is None or a["fps_needed"] > 60
+        assert a["noise_needed_deg"] is None or a["noise_needed_deg"] < 1.0
+
+
+def test_angles_off_the_trough_name_the_rows(horsdal):
+    log, truth = simulated_log(horsdal, 120, 0.2, seed=5)
+    bad = log.copy()
+    sel = (truth["phase"] == 1).to_numpy()
+    bad.loc[sel, "phi"] += np.radians(30.0)  # the projectile far below ground in the trough
+    with pytest.warns(ModelValidityWarning, match=r"rows \d+.*below ground") as rec:
+        r = reconstruct(bad, horsdal, events=truth.attrs["events"])
+    assert any("in the trough" in str(w.message) for w in rec)
+    assert any("in the trough" in v for v in r.attrs["validity"])
+
+
+def test_psi_beyond_its_range_names_the_rows(horsdal):
+    log, truth = simulated_log(horsdal, 120, 0.2, seed=6)
+    bad = log.copy()
+    rows = np.arange(80, 95)
+    bad.loc[rows, "psi"] = bad.loc[rows, "theta"] + np.radians(20.0)  # arm through the beam
+    with pytest.warns(ModelValidityWarning, match="through the beam") as rec:
+        reconstruct(bad, horsdal, events=truth.attrs["events"])
+    text = " ".join(str(w.message) for w in rec)
+    assert "rows 8" in text or "rows 7" in text
+
+
+def test_a_clean_log_raises_no_validity_warning(horsdal):
+    log, truth = simulated_log(horsdal, 240, 0.1, seed=8)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        r = reconstruct(log, horsdal)
+    assert not r.attrs["validity"], r.attrs["validity"]
+    assert not any("through the beam" in str(w.message) or "in the trough" in str(w.message)
+                   for w in rec)
+
+
+def test_bad_arguments():
+    with pytest.raises(TrebuchetInputError, match="form must be"):
+        ReconstructOptions(form="sideways")
+    with pytest.raises(TrebuchetInputError, match="scene file not found"):
+        reconstruct(pd.DataFrame({"t": [0.0]}), "/nonexistent/scene.toml")
