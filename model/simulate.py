@@ -413,17 +413,18 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
     times = default_times(traj, dt) if t_eval is None else np.asarray(t_eval, dtype=float)
     run = loads(traj.angles(times), scene, release_state=traj.release_state)
+    _refuse_non_finite(run, scene)  # before attrs: pandas copies attrs on every column read
     drift = float(np.max(np.abs(engine_energy(run, traj)))) if len(run) else 0.0
     delta_u = scene.delta_U
+    slack = slack_intervals(run)
     run.attrs["events"] = dict(traj.events)
     run.attrs["flight"] = (None if traj.release_state is None else flight_summary(
         traj.release_state, scene.g, scene.flight, scene.engine.m))
     run.attrs["diagnostics"] = {
         "method": method, "rtol": rtol, "nfev": traj.nfev,
         "energy_drift": drift, "energy_drift_rel": drift / delta_u, "delta_U": delta_u,
-        "slack": slack_intervals(run), "advice": _advice(scene, traj),
+        "slack": slack, "advice": _advice(scene, traj),
     }
-    _refuse_non_finite(run, scene)
     for a, b in run.attrs["diagnostics"]["slack"]:
         warnings.warn(ModelValidityWarning(
             f"{scene.source}: the sling goes slack (tension below zero) from t = {a:.4g} s to "
@@ -461,20 +462,20 @@ _UNDEFINED_DRY_FIRE = ("x_m", "y_m", "vx_m", "vy_m")
 def _refuse_non_finite(run: pd.DataFrame, scene: Scene) -> None:
     """Output holds no NaN or infinity except where a quantity does not exist (the sling's
     angle after release, the projectile of a dry fire); anything else is refused."""
-    skip = set(_UNDEFINED_AFTER_RELEASE) | (set(_UNDEFINED_DRY_FIRE) if scene.engine.m == 0.0
-                                            else set())
+    floats = run.select_dtypes("float")
+    bad = ~np.isfinite(floats.to_numpy())
+    names = list(floats.columns)
     phase3 = run["phase"].to_numpy() == 3
-    for name in run.columns:
-        values = run[name].to_numpy()
-        if values.dtype.kind != "f":
-            continue
-        bad = ~np.isfinite(values)
-        if name in _UNDEFINED_AFTER_RELEASE:
-            bad &= ~phase3
-        elif name in skip:
-            continue
-        if bad.any():
-            t_bad = float(run["t"].to_numpy()[np.argmax(bad)])
-            raise TrebuchetInputError(
-                f"{scene.source}: the model breaks down at t = {t_bad:.4g} s ({name} is not "
-                "finite); the scene is outside what the equations of motion can describe")
+    for name in _UNDEFINED_AFTER_RELEASE:
+        if name in names:
+            bad[phase3, names.index(name)] = False
+    if scene.engine.m == 0.0:
+        for name in _UNDEFINED_DRY_FIRE:
+            if name in names:
+                bad[:, names.index(name)] = False
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        t_bad = float(run["t"].to_numpy()[row])
+        raise TrebuchetInputError(
+            f"{scene.source}: the model breaks down at t = {t_bad:.4g} s ({names[col]} is not "
+            "finite); the scene is outside what the equations of motion can describe")
