@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .angles_from_points import paper_branch
 from .parsed_log import ParsedLog
 
 
@@ -147,7 +148,9 @@ def drop_repeated_frames(log: ParsedLog) -> str | None:
 
 
 def unwrap_angles(log: ParsedLog) -> list[str]:
-    """Unwrap each angle with :func:`numpy.unwrap` over its present values (jumps > π)."""
+    """Unwrap each angle with :func:`numpy.unwrap` over its present values (jumps > π) and
+    put it on the 2π branch of the paper's start pose (:func:`paper_branch`: the first present
+    value in [-π, π) for theta and psi, in [-3π/2, π/2) for phi), as point files are."""
     out = []
     for a in ("theta", "psi", "phi"):
         values = log.angles[a]
@@ -158,11 +161,16 @@ def unwrap_angles(log: ParsedLog) -> list[str]:
         shifted = np.abs(unwrapped - values[ok]) > 1e-9
         if shifted.any():
             first = log.rows[ok][int(np.argmax(shifted))]
-            values = values.copy()
-            values[ok] = unwrapped
-            log.angles[a] = values
             out.append(
                 f"{a} unwrapped: jumps of 2π removed, {int(shifted.sum())} values shifted "
                 f"from row {first} on"
             )
+        on_branch = paper_branch(a, unwrapped)
+        turns = int(round((on_branch[0] - unwrapped[0]) / (2 * np.pi)))
+        if turns:
+            out.append(f"{a} moved by {turns:+d} turn(s) to the paper's start branch (first "
+                       f"value {np.degrees(on_branch[0]):.1f}°)")
+        values = values.copy()
+        values[ok] = on_branch
+        log.angles[a] = values
     return out

@@ -142,9 +142,6 @@ def test_sample_matches_simulation_within_stated_noise(sample):
         assert abs(float(np.mean(wrapped))) < 4 * s / math.sqrt(n), (name, a)
 
 
-@pytest.mark.xfail(reason="read_log keeps the first frame's 2π branch for angle columns "
-                          "(points get the paper's start branch); Tracker's protractor "
-                          "starts the sling at +179.5° in this file", strict=False)
 def test_tracker_sling_branch_is_the_papers():
     log = quiet_read(SAMPLES_DIR / "horsdal_tracker_multi_decimal_comma.txt",
                      columns={"Balken": "theta", "Arm": "psi", "Schlinge": "phi"})
