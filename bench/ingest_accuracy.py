@@ -30,7 +30,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.ingest.reconstruct import ReconstructOptions, loads_from_smoothed, reconstruct
+from trebuchet.ingest.reconstruct import (
+    ReconstructOptions,
+    loads_from_smoothed,
+    reconstruct,
+    sling_track_end,
+)
 from trebuchet.ingest.simulated_log import simulated_log
 from trebuchet.ingest.smooth import smooth
 from trebuchet.model.scene import Scene
@@ -81,11 +86,13 @@ def one_run(engine: str, fps: int, noise: float, seed: int) -> list[dict]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t0 = time.perf_counter()
-        est = smooth(log)
+        end = sling_track_end(log)  # as reconstruct() does
+        est = smooth(log, events=None if end is None else {"release": end[0]})
         smoothed = time.perf_counter() - t0
         for form in ("projected", "direct"):
             t1 = time.perf_counter()
-            res = loads_from_smoothed(est, scene, options=ReconstructOptions(form=form))
+            res = loads_from_smoothed(est, scene, options=ReconstructOptions(form=form),
+                                      release_sd=None if end is None else end[1])
             seconds = smoothed + time.perf_counter() - t1
             true_ev, ev = truth.attrs["events"], res.attrs["events"]
             row = {"engine": engine, "fps": fps, "noise_deg": noise, "seed": seed,

@@ -51,6 +51,7 @@ from .smooth import ANGLES, SUFFIXES, SmoothSettings, smooth
 from .uncertainty import propagate
 
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
+           "sling_track_end",
            "STATE_COLUMNS", "FORMS"]
 
 FORMS = ("projected", "direct")
@@ -66,15 +67,20 @@ class ReconstructOptions:
 
     ``form``: "projected" or "direct" (see the module doc). ``trough``: "constraint" or
     "measured" φ in phase I. ``event_sd_frames``: sd of a detected trigger or release time,
-    in frames (a given event is exact). ``resolution_fraction``: the advisory speaks where
-    a load's sd exceeds this fraction of its peak. ``model``: the smoother's model ("ca"
-    or "cj"); ``smooth``: its settings.
+    in frames (a given event is exact). ``release_at_track_end``: when the sling's track
+    ends while the others go on, the release is put between its last frame and the next
+    (sd: the gap / √12) and handed to the smoother, instead of the smoother's search for
+    a jump in the last frames of the track (which at 60 fps landed about 6 frames early
+    on simulated logs, ``bench/ingest_accuracy.py``). ``resolution_fraction``: the advisory
+    speaks where a load's sd exceeds this fraction of its peak. ``model``: the smoother's
+    model ("ca" or "cj"); ``smooth``: its settings.
     """
 
     form: str = "projected"
     trough: str = "constraint"
     event_sd_frames: float = 0.5
     resolution_fraction: float = 0.1
+    release_at_track_end: bool = True
     model: str = "ca"
     smooth: SmoothSettings | None = None
 
@@ -208,14 +214,32 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     return when, lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
 
 
+def sling_track_end(log: pd.DataFrame, min_frames: int = 3) -> tuple[float, float] | None:
+    """Release time (s) and its sd (s) when the sling angle's track ends at least
+    ``min_frames`` frames before the others': midway between its last frame and the next,
+    sd = that gap / √12 (uniform). None otherwise."""
+    t = log["t"].to_numpy(dtype=float)
+    ok = {a: np.flatnonzero(np.isfinite(log[a].to_numpy(dtype=float))) for a in ANGLES}
+    if any(v.size == 0 for v in ok.values()):
+        return None
+    last = int(ok["phi"][-1])
+    others = max(int(ok["theta"][-1]), int(ok["psi"][-1]))
+    if others - last < min_frames or last + 1 >= t.size:
+        return None
+    gap = t[last + 1] - t[last]
+    return float(t[last] + 0.5 * gap), float(gap / np.sqrt(12.0))
+
+
 def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                         events: Mapping[str, float | None] | None = None,
-                        options: ReconstructOptions | None = None) -> pd.DataFrame:
+                        options: ReconstructOptions | None = None,
+                        release_sd: float | None = None) -> pd.DataFrame:
     """Every load and its sd from the output of :func:`~trebuchet.ingest.smooth.smooth`.
 
     ``events``: given event times (s, log time; None = no such event) overriding those in
-    ``est.attrs["events"]`` and the lift-off detection. Returns the frame of
-    :func:`reconstruct` (without the log's own attrs).
+    ``est.attrs["events"]`` and the lift-off detection; ``release_sd`` (s): sd of the
+    release time in ``est`` if known (default ``event_sd_frames`` frames). Returns the
+    frame of :func:`reconstruct` (without the log's own attrs).
     """
     options = options or ReconstructOptions()
     given = dict(events or {})
@@ -234,7 +258,8 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     fps = 1.0 / float(np.median(np.diff(t)))
     sd_event = options.event_sd_frames / fps
     event_sd = {"trigger": 0.0 if "trigger" in given or trigger is None else sd_event,
-                "release": 0.0 if "release" in given or release is None else sd_event}
+                "release": 0.0 if "release" in given or release is None
+                else (sd_event if release_sd is None else release_sd)}
     lift = None
     event_sd["lift_off"] = float("nan")
     if scene.projectile == "trough":
@@ -410,9 +435,18 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     source = str(log.attrs.get("source", "log"))
     given = _given_events(events, source)
     smooth_events = {k: v for k, v in given.items() if k in ("trigger", "release")}
+    track_end = None
+    if ("release" not in given and options.release_at_track_end
+            and scene.projectile != "none"):
+        track_end = sling_track_end(log)
+        if track_end is not None:
+            smooth_events["release"] = track_end[0]
     est = smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
                  settings=options.smooth)
-    result = loads_from_smoothed(est, scene, events=given, options=options)
+    if track_end is not None:
+        est.attrs["event_sources"]["release"] = "end of the sling track"
+    result = loads_from_smoothed(est, scene, events=given, options=options,
+                                 release_sd=None if track_end is None else track_end[1])
     for key in ("source", "format", "repairs", "columns"):
         if key in log.attrs:
             result.attrs[key] = log.attrs[key]
