@@ -197,3 +197,12 @@ def test_bad_arguments():
         ReconstructOptions(form="sideways")
     with pytest.raises(TrebuchetInputError, match="scene file not found"):
         reconstruct(pd.DataFrame({"t": [0.0]}), "/nonexistent/scene.toml")
+
+
+def test_release_at_the_end_of_the_sling_track(horsdal):
+    log, truth = simulated_log(horsdal, 60, 1.0, seed=3)
+    r = _quiet(reconstruct, log, horsdal)
+    assert r.attrs["event_sources"]["release"] == "end of the sling track"
+    err = r.attrs["events"]["release"] - truth.attrs["events"]["release"]
+    assert abs(err) <= 0.5 / 60
+    assert 0 < r.attrs["event_sd"]["release"] <= 1 / 60
