@@ -398,16 +398,17 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     ----------
     log_or_path : a log file or a DataFrame of angles (as for ``reconstruct``).
     scene : the engine filmed (a Scene or a scene file).
-    options : :class:`CompareOptions` (release rule, band width, solver tolerance).
+    options : :class:`CompareOptions` (release rule, alignment, band width, tolerance).
     progress : told each step before it runs (reconstructing takes seconds).
     **reconstruct_options : passed to :func:`~trebuchet.ingest.reconstruct.reconstruct`
         (``fps``, ``columns``, ``points``, ``events``, ``form``, ...).
 
     Returns
     -------
-    ``(metrics, measured, predicted)``: the table of :func:`metrics` (``attrs``:
-    ``release_rule``), the reconstructed frame (log time ``t``, ``t_shot``, loads and their
-    sd) and the simulation at the measured rows (same index, ``t`` = ``t_shot``).
+    ``(metrics, measured, predicted)``: the table of :func:`metrics` (``attrs``: ``lag``,
+    ``angle_chi2``, ``alignment``, ``release_rule``), the reconstructed frame (log time
+    ``t``, ``t_shot``, loads and their sd) and the simulation at the measured rows (same
+    index and ``t_shot``; ``t`` is model time, see :func:`predict`).
     Warnings of ``reconstruct`` and ``simulate`` pass through.
     """
     from .reconstruct import reconstruct  # filterpy and the smoother load on first use

@@ -1,0 +1,168 @@
+"""The ``trebuchet compare`` command: a filmed shot against the model of its scene, as
+``DIR/index.html`` with the paper's figures (measured ±2 sd bands, predicted lines), the
+metrics and events as tables and CSV files, and the advisories; written whole or not at all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from trebuchet.errors import TrebuchetInputError
+from trebuchet.model.figures import FIGURES
+from trebuchet.model.report_cli import CAPTIONS
+from trebuchet.model.scene import Scene
+
+from .compare import ALIGN_MODES, RELEASE_MODES, CompareOptions, compare, event_table
+from .report import write_report
+
+__all__ = ["register", "compare_report", "parse_pairs", "ANGLE_MISFIT_ADVISORY"]
+
+ANGLE_MISFIT_ADVISORY = 4.0  # sd² per row: above this the angles themselves disagree
+ANGLES = ("theta", "psi", "phi")
+POINTS = ("pivot", "spigot", "hinge", "counterweight", "projectile")
+
+
+def _stderr(message: str) -> None:
+    print(f"trebuchet compare: {message}", file=sys.stderr, flush=True)
+
+
+def parse_pairs(items: Sequence[str] | None, option: str, *, key_side: str,
+                allowed: Sequence[str]) -> dict[str, str] | None:
+    """``NAME=VALUE`` arguments as a dict. ``key_side="left"``: the left side must be one of
+    ``allowed`` (``--point pivot=axle`` -> {"pivot": "axle"}); ``"right"``: the right side
+    (``--column beam=theta`` -> {"beam": "theta"}; the name may itself hold '=')."""
+    if not items:
+        return None
+    out: dict[str, str] = {}
+    for item in items:
+        left, sep, right = (item.rpartition("=") if key_side == "right"
+                            else item.partition("="))
+        fixed = right if key_side == "right" else left
+        form = "NAME=" + "|".join(allowed) if key_side == "right" else \
+            "|".join(allowed) + "=NAME"
+        if not sep or not left or not right or fixed not in allowed:
+            raise TrebuchetInputError(f"{option} {item!r}: expected {form}")
+        out[left] = right
+    return out
+
+
+def _advisories(caught: list[warnings.WarningMessage], predicted: pd.DataFrame) -> list[str]:
+    """The warnings of reconstruct and simulate (passed on to the caller too), and whether
+    the model's angles fit the measured ones at all."""
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    out = [str(w.message) for w in caught]
+    chi2 = predicted.attrs.get("angle_chi2", math.nan)
+    if chi2 > ANGLE_MISFIT_ADVISORY:
+        out.append(f"the model's θ and ψ differ from the measured ones by {math.sqrt(chi2):.3g} "
+                   "sd (root mean square) from trigger to release: this scene does not move "
+                   "like the filmed engine (check its masses, lengths and start pose); the "
+                   "load differences below follow from that")
+    return out
+
+
+def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
+                   out_dir: str | Path, *, options: CompareOptions | None = None,
+                   progress: Callable[[str], None] | None = None,
+                   **reconstruct_options) -> tuple[Path, pd.DataFrame]:
+    """Compare a log with ``scene`` (:func:`~trebuchet.ingest.compare.compare`) and write
+    ``out_dir``: ``index.html``, ``metrics.csv`` (the contract's columns first),
+    ``events.csv`` and one PNG per figure of :data:`trebuchet.model.figures.FIGURES`.
+    Atomic: after an error there is no report (an older one at ``out_dir`` stays).
+    Returns the report's path and the metrics."""
+    scene = scene if isinstance(scene, Scene) else Scene.from_toml(scene)
+    options = options or CompareOptions()
+    say = progress or (lambda message: None)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table, measured, predicted = compare(log, scene, options=options, progress=say,
+                                             **reconstruct_options)
+    advisories = _advisories(caught, predicted)
+    events = event_table(measured, predicted)
+    notes = " ".join(str(n).rstrip(".") + "." for n in measured.attrs.get("notes", []))
+    name = Path(str(measured.attrs.get("source", log))).name
+    intro = (f"Log {name} ({len(measured)} frames at {measured.attrs.get('fps', math.nan):.4g} "
+             f"fps, loads reconstructed in the {measured.attrs.get('form', '?')} form) against "
+             f"the model of {Path(scene.source).name}. Alignment: "
+             f"{predicted.attrs['alignment']}. Release: {predicted.attrs['release_rule']}. "
+             f"Times are s after the log's detected trigger; metrics in SI units (N, N m, W, "
+             f"J, s); measured curves are ±{options.band_sd:g} sd bands, predicted curves "
+             "lines. Quantities held by the sling (F_S, P_m, E_m) are compared from trigger "
+             f"to release, the others as long as both frames go. {notes}").strip()
+    figures = {key: (lambda make=make: make(predicted, measured, scene))
+               for key, make in FIGURES.items()}
+    out = write_report(out_dir, figures, {"metrics": table, "events": events}, advisories,
+                       title=f"trebuchet compare: {name} against {Path(scene.source).name}",
+                       captions=CAPTIONS, intro=intro, csv_tables=["metrics", "events"],
+                       progress=say)
+    return out, table
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``compare LOG --scene SCENE -o DIR [--fps N] [--column NAME=theta ...]
+    [--point pivot=NAME ...] [--release auto|log|scene] [--align fit|trigger] [--quiet]``."""
+    p = sub.add_parser(
+        "compare", help="a filmed shot against the model: metrics, figures, HTML report",
+        description="Reconstruct the loads of LOG, simulate SCENE aligned to the log and "
+                    "write DIR/index.html with the figures, DIR/metrics.csv (peaks, RMS "
+                    "differences, peak timing, fraction outside the measured ±2 sd band) "
+                    "and DIR/events.csv. The directory is written whole or not at all.")
+    p.add_argument("log", help="angle log or tracking-tool export (CSV, Tracker, Kinovea, "
+                               "DeepLabCut)")
+    p.add_argument("--scene", required=True, help="scene file (TOML) of the filmed engine")
+    p.add_argument("-o", "--output", required=True, help="report directory to write")
+    p.add_argument("--fps", type=float, default=None,
+                   help="frame rate, for logs with frame numbers and no time column")
+    p.add_argument("--column", action="append", metavar="NAME=ANGLE",
+                   help="which column or track of the log holds theta, psi or phi "
+                        "(repeatable)")
+    p.add_argument("--point", action="append", metavar="POINT=NAME",
+                   help="which tracked point is the pivot, spigot, hinge, counterweight or "
+                        "projectile (repeatable)")
+    p.add_argument("--release", choices=RELEASE_MODES, default="auto",
+                   help="auto (default): a scene's release time is replaced by the log's "
+                        "release, a velocity-angle rule is kept; log: always the log's; "
+                        "scene: always the scene's rule")
+    p.add_argument("--align", choices=ALIGN_MODES, default="fit",
+                   help="fit (default): the model's start fitted to the measured angles; "
+                        "trigger: the model starts at the log's detected trigger")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(run=_compare)
+
+
+def _options(args: argparse.Namespace) -> dict[str, object]:
+    return {"fps": args.fps,
+            "columns": parse_pairs(args.column, "--column", key_side="right", allowed=ANGLES),
+            "points": parse_pairs(args.point, "--point", key_side="left", allowed=POINTS)}
+
+
+def _summary(table: pd.DataFrame) -> Mapping[str, float]:
+    return {"worst_rms_rel": float(table["rms_difference_rel"].max()),
+            "worst_outside": float(table["outside_band_fraction"].max())}
+
+
+def _compare(args: argparse.Namespace) -> int:
+    start = time.monotonic()
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
+        raise TrebuchetInputError(f"--fps {args.fps:g}: the frame rate must be positive")
+    reconstruct_options = _options(args)
+    scene = Scene.from_toml(args.scene)
+    options = CompareOptions(release=args.release, align=args.align)
+    out, table = compare_report(args.log, scene, args.output, options=options,
+                                progress=None if args.quiet else _stderr,
+                                **reconstruct_options)
+    s = _summary(table)
+    print(f"compare {args.log} against {args.scene} -> {out / 'index.html'} "
+          f"(RMS differences up to {100 * s['worst_rms_rel']:.3g} % of the measured peaks, "
+          f"up to {100 * s['worst_outside']:.3g} % of the shot outside "
+          f"±{options.band_sd:g} sd; "
+          f"{time.monotonic() - start:.1f} s)")
+    return 0
