@@ -19,6 +19,7 @@ import os
 from collections import Counter
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -124,3 +125,24 @@ def test_random_engines_conserve_energy_and_balance_forces():
     drawn = sum(outcomes.values())
     assert outcomes["ok"] >= 10, outcomes
     assert outcomes["refused"] <= MAX_REFUSED * drawn, outcomes
+
+
+# Found by hypothesis (an earlier version of the strategy, with L3 = 0.1–0.5 L1): energy drifts
+# by 3.9e-7 of ΔU in the 20 ms after release (phase III) at the default tolerance, with the lean
+# DOP853 and with scipy's alike (rtol 1e-8: 2.1e-7; 1e-12: 7e-12; Radau at 1e-10: 3e-11).
+# Phases I and II stay below 5e-10. Reported to the model's owner; not fixed here.
+PHASE3_DRIFT_SCENE = {
+    "engine": {"L1": math.exp(1.625), "L2": 1.6762750337567065, "L_CM": 0.0,
+               "L3": 1.9837574363984694, "L4": 4.35434757289464, "m_b": 13.804574186067095,
+               "M": 125.95661219607334, "m": 0.04225373612899234},
+    "start": {"theta_deg": -72.0, "psi_deg": -90.0, "phi_deg": -180.0},
+    "release": {"velocity_angle_deg": 57.25},
+    "environment": {"g": 9.81},
+}
+
+
+@pytest.mark.xfail(strict=True, reason="known: DOP853 at rtol 1e-10 loses 3.9e-7 of ΔU in "
+                   "phase III on this engine (reported, model not changed here)")
+def test_energy_conserved_after_release_on_light_beam_engine():
+    run = simulate(Scene.from_dict(PHASE3_DRIFT_SCENE, source="phase3-drift"))
+    assert run.attrs["diagnostics"]["energy_drift_rel"] < 1e-8
