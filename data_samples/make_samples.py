@@ -197,8 +197,7 @@ def sling_branch_note(shown: np.ndarray) -> str:
     first = float(shown[np.isfinite(shown)][0])
     text = f"first sling value {first:+.1f}°"
     if first > 0:
-        text += (": a reader that keeps the first frame's branch gets phi 360° above the "
-                 "paper's −180° start")
+        text += "; `read_log` moves each angle to the paper's start branch and reports it"
     return text
 
 
