@@ -27,13 +27,14 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Scene", "Engine", "Start", "Release", "simulate", "forces", "read_log", "smooth",
-    "reconstruct", "TrebuchetInputError", "TrebuchetDataWarning", "ModelValidityWarning",
+    "reconstruct", "compare", "TrebuchetInputError", "TrebuchetDataWarning", "ModelValidityWarning",
 ]
 
 _LAZY = {
     "read_log": ("trebuchet.ingest.read_log", "read_log"),
     "smooth": ("trebuchet.ingest.smooth", "smooth"),
     "reconstruct": ("trebuchet.ingest.reconstruct", "reconstruct"),
+    "compare": ("trebuchet.ingest.compare", "compare"),
 }
 
 
