@@ -89,6 +89,10 @@ class StepModel:
     def k(self) -> int:
         return self.F.shape[-1]
 
+    def stretch(self, lo: int, hi: int) -> StepModel:
+        """Steps ``lo .. hi-1`` (to run the filter on from the filtered state at ``lo-1``)."""
+        return StepModel(self.F[lo:hi], self.Q0[lo:hi], self.G[lo:hi])
+
 
 @dataclass(frozen=True)
 class FilterResult:
@@ -97,6 +101,8 @@ class FilterResult:
     ``S`` the innovation variance and ``nu`` the innovation (0 at gaps) at every step;
     with ``store=True`` also ``xp``/``Pp`` (state and covariance after the prediction)
     and ``gain`` (Kalman gain, zero at gaps), which :func:`backward_smoother` needs.
+    ``x_end``/``P_end``: the filtered state (B, k) and covariance (B, k, k) after the last
+    step, to continue the filter on a following stretch of steps.
     """
 
     S: np.ndarray
@@ -104,6 +110,8 @@ class FilterResult:
     xp: np.ndarray | None = None
     Pp: np.ndarray | None = None
     gain: np.ndarray | None = None
+    x_end: np.ndarray | None = None
+    P_end: np.ndarray | None = None
 
     def loglik_sums(self, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``Σ w log S``, ``Σ w ν²/S`` and ``Σ w`` per series; ``weight`` (B, n), 0 at gaps."""
@@ -142,7 +150,8 @@ def batch_kalman_filter(
     z : (B, n) measurements of the first state; values where ``valid`` is False are ignored.
     valid : (B, n) bool, False for a gap (predict through, no update).
     steps : per-step matrices, see :class:`StepModel`.
-    lam, kick, r2 : (B,) process-noise density, kick variance, measurement variance.
+    lam : (B,) process-noise density, or (B, n) one per series and step (piecewise noise).
+    kick, r2 : (B,) kick variance, measurement variance.
     x0, P0 : (B, k), (B, k, k) prior at frame 0, before the step-0 prediction.
     store : keep the histories needed by :func:`backward_smoother`.
 
@@ -156,13 +165,16 @@ def batch_kalman_filter(
     valid = np.asarray(valid, dtype=bool)
     zz = np.where(valid, z, 0.0)
     r2 = np.broadcast_to(np.asarray(r2, float), (B,))
-    lam_c = np.asarray(lam, float)[:, None]
+    lam = np.asarray(lam, float)
+    per_step = lam.ndim == 2
+    lam_c = lam if per_step else lam[:, None]
     kick_c = np.asarray(kick, float)[:, None]
     FT = np.ascontiguousarray(np.swapaxes(steps.F, 1, 2))
     KrT = _kron_transposed(steps.F)
     Q0 = steps.Q0.reshape(n, kk)
     G = steps.G.reshape(n, kk)
-    has_q = np.any(Q0 != 0.0, axis=1) & np.any(lam_c != 0.0)
+    has_q = np.any(Q0 != 0.0, axis=1) & (np.any(lam_c != 0.0, axis=0) if per_step
+                                         else np.any(lam_c != 0.0))
     has_kick = np.any(G != 0.0, axis=1) & np.any(kick_c != 0.0)
     is_identity = np.all(steps.F == np.eye(k), axis=(1, 2))
     any_valid = valid.any(axis=0)
@@ -181,7 +193,7 @@ def batch_kalman_filter(
             x = x @ FT[i]
             P = P @ KrT[i]
         if has_q[i]:
-            P = P + lam_c * Q0[i]
+            P = P + (lam_c[:, i, None] if per_step else lam_c) * Q0[i]
         if has_kick[i]:
             P = P + kick_c * G[i]
         PH = P[:, :k]
@@ -203,9 +215,10 @@ def batch_kalman_filter(
             nu_hist[i] = nu
             if store:
                 gains[i] = K
+    end = {"x_end": x, "P_end": P.reshape(B, k, k)}
     if not store:
-        return FilterResult(S_hist, nu_hist)
-    return FilterResult(S_hist, nu_hist, xps, Pps.reshape(n, B, k, k), gains)
+        return FilterResult(S_hist, nu_hist, **end)
+    return FilterResult(S_hist, nu_hist, xps, Pps.reshape(n, B, k, k), gains, **end)
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ def filterpy_filter_smoother(
     z: np.ndarray,
     valid: np.ndarray,
     steps: StepModel,
-    lam: float,
+    lam: float | np.ndarray,
     kick: float,
     r2: float,
     x0: np.ndarray,
@@ -26,7 +26,8 @@ def filterpy_filter_smoother(
 ) -> dict[str, np.ndarray]:
     """Filter and RTS-smooth one series with filterpy's ``KalmanFilter``.
 
-    Arguments as one series of :func:`~trebuchet.ingest.kalman_batch.batch_kalman_filter`.
+    Arguments as one series of :func:`~trebuchet.ingest.kalman_batch.batch_kalman_filter`
+    (``lam`` a number or one per step).
     Returns ``x``, ``P`` (filtered), ``xp``, ``Pp`` (predicted), ``xs``, ``Ps``
     (smoothed), ``loglik_terms`` (``log S + ν²/S`` per valid step, NaN at gaps).
     The smoother is given ``np.linalg.pinv``: at rest the predicted covariance is singular.
@@ -40,7 +41,8 @@ def filterpy_filter_smoother(
     kf.H = np.eye(1, k)
     kf.R = np.array([[r2]])
     Fs = [steps.F[i] for i in range(steps.n)]
-    Qs = [lam * steps.Q0[i] + kick * steps.G[i] for i in range(steps.n)]
+    lam = np.broadcast_to(np.asarray(lam, float), (steps.n,))
+    Qs = [lam[i] * steps.Q0[i] + kick * steps.G[i] for i in range(steps.n)]
     zs = [np.array([[v]]) if ok else None for v, ok in zip(z, valid, strict=True)]
     x, P, xp, Pp = kf.batch_filter(zs, Fs=Fs, Qs=Qs)
     xs, Ps, _, _ = kf.rts_smoother(x, P, Fs=Fs, Qs=Qs, inv=np.linalg.pinv)

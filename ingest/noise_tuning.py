@@ -30,11 +30,19 @@ class NoiseSearch:
     smoother considered (its bandwidth, about ``λ^(1/(2k))`` rad per frame).
     ``cutoff_factor``: the bandwidth used for the output relative to the
     maximum-likelihood one (``λ`` times ``cutoff_factor^(2k)``); 1 keeps the ML value.
+    ``piece_decades``: half-width (decades of ``λ``) of the grid of :func:`piecewise_noise`
+    around the single-``λ`` maximum; ``piece_prior_decades``: sd (decades) of the
+    log-normal prior that keeps a piece's ``λ`` near that maximum (a short piece's
+    likelihood is flat toward small ``λ``); ``piece_cutoff_factor``: as ``cutoff_factor``,
+    for the pieces.
     """
 
     log10_step: float = 0.5
     min_cutoff_hz: float = 0.3
     cutoff_factor: float = 0.8
+    piece_decades: float = 3.0
+    piece_prior_decades: float = 1.0
+    piece_cutoff_factor: float = 0.8
 
 
 @dataclass(frozen=True)
@@ -151,3 +159,80 @@ def maximum_likelihood_noise(
             lam_use = lam_ml
         out.append(NoiseEstimate(lam_ml, lam_use, r2, ll_best, j in (0, m - 1)))
     return out
+
+
+@dataclass(frozen=True)
+class PiecewiseNoise:
+    """Result of :func:`piecewise_noise` for ``A`` angles and ``P`` pieces (smoother units).
+
+    ``lam_ml`` (A, P) maximum-likelihood ``q/r²`` per piece, ``lam`` (A, P) the ones to use
+    (after ``cutoff_factor``), ``loglik`` (A,) the summed maximum log-likelihoods,
+    ``at_edge`` (A, P) maxima on the edge of the local grid.
+    """
+
+    lam_ml: np.ndarray
+    lam: np.ndarray
+    loglik: np.ndarray
+    at_edge: np.ndarray
+
+
+def piecewise_noise(
+    z: np.ndarray,
+    valid: np.ndarray,
+    lik_weight: np.ndarray,
+    steps: StepModel,
+    bounds: np.ndarray,
+    lam_start: np.ndarray,
+    r2: np.ndarray,
+    kick: np.ndarray,
+    x0: np.ndarray,
+    P0: np.ndarray,
+    settings: NoiseSearch = NoiseSearch(),
+) -> PiecewiseNoise:
+    """``λ = q/r²`` chosen piece by piece: the process noise may differ between stretches
+    of the log (the trough, the swing, the flight after release), ``r²`` stays fixed.
+
+    ``bounds`` (P+1,) frame indices ``0 = b0 < b1 < … < bP = n``; piece ``p`` holds the
+    steps ``b_p .. b_{p+1}-1``. Going forward, each piece's ``λ`` maximises the likelihood
+    of that piece's innovations with the earlier pieces at their chosen ``λ`` (a sequential,
+    causal maximum: the filter before a piece does not depend on its ``λ``). The grid runs
+    ``±settings.piece_decades`` around ``lam_start`` (A,) (the single-``λ`` maximum); one
+    batched pass per piece, so the whole search costs one pass over the log. The state
+    carried into the next piece is that of the best grid point; the value used is the
+    parabola through the three best. ``r2`` (A,) measurement variance; ``kick``, ``x0``,
+    ``P0`` as for :func:`maximum_likelihood_noise`.
+    """
+    A = z.shape[0]
+    k = steps.k
+    half = int(np.ceil(settings.piece_decades / settings.log10_step))
+    offsets = settings.log10_step * np.arange(-half, half + 1)
+    m = offsets.size
+    rep = np.repeat(np.arange(A), m)
+    lam_grid = np.repeat(np.asarray(lam_start, float), m) * np.tile(10.0**offsets, A)
+    x = np.asarray(x0, float)[rep]
+    P = np.asarray(P0, float)[rep]
+    P_count = len(bounds) - 1
+    lam_ml = np.empty((A, P_count))
+    ll_sum = np.zeros(A)
+    edge = np.zeros((A, P_count), bool)
+    for p in range(P_count):
+        lo, hi = int(bounds[p]), int(bounds[p + 1])
+        filt = batch_kalman_filter(
+            z[rep, lo:hi], valid[rep, lo:hi], steps.stretch(lo, hi), lam_grid * r2[rep], kick[rep],
+            r2[rep], x, P,
+        )
+        log_s, nu2_s, _ = filt.loglik_sums(lik_weight[rep, lo:hi])
+        ll = -0.5 * (log_s + nu2_s).reshape(A, m)
+        ll = ll - 0.5 * (offsets / settings.piece_prior_decades) ** 2
+        ll = np.where(np.isfinite(ll), ll, -np.inf)
+        best = np.argmax(ll, axis=1)
+        for a in range(A):
+            xb, lb = _parabola_peak(offsets, ll[a], int(best[a]))
+            lam_ml[a, p] = lam_start[a] * 10.0**xb
+            ll_sum[a] += lb
+            edge[a, p] = best[a] in (0, m - 1)
+        pick = np.arange(A) * m + best
+        x = np.repeat(filt.x_end[pick], m, axis=0)
+        P = np.repeat(filt.P_end[pick], m, axis=0)
+    lam_use = lam_ml * settings.piece_cutoff_factor ** (2 * k)
+    return PiecewiseNoise(lam_ml, lam_use, ll_sum, edge)

@@ -49,7 +49,13 @@ from .kalman_batch import (
     polynomial_transition,
     white_noise_covariance,
 )
-from .noise_tuning import NoiseEstimate, NoiseSearch, lambda_grid, maximum_likelihood_noise
+from .noise_tuning import (
+    NoiseEstimate,
+    NoiseSearch,
+    lambda_grid,
+    maximum_likelihood_noise,
+    piecewise_noise,
+)
 
 ANGLES: tuple[str, ...] = ("theta", "psi", "phi")
 MODEL_STATES: dict[str, int] = {"ca": 3, "cj": 4}
@@ -65,7 +71,15 @@ class SmoothSettings:
     ``jerk_kick_time`` (s): for ``model="cj"`` the jerk kick sd is the acceleration kick
     sd divided by this. ``min_frames``: fewest valid frames an angle's track may have.
     ``retune_after_release``: re-run the noise search near its optimum once a release
-    was found (the jump inflates ``q`` otherwise).
+    was found (the jump inflates ``q`` otherwise). ``shot_pieces``: the process noise is
+    chosen separately (:func:`~trebuchet.ingest.noise_tuning.piecewise_noise`) on up to
+    this many stretches of equal duration between trigger and release, each of at least
+    ``piece_min_frames`` frames, and on the flight after release (the swing's jerk is
+    far larger than the trough's: one ``q`` made the bands about 4× too wide in the
+    trough and too narrow in the swing); 0 (default) keeps one ``q`` for the whole log.
+    Pieces cut the force errors in trials on simulated logs but left the torque and F_S
+    bands too wide in some cells, so they are opt-in (``ReconstructOptions(preset=
+    "precise")`` turns them on).
     """
 
     noise: NoiseSearch = field(default_factory=NoiseSearch)
@@ -75,6 +89,8 @@ class SmoothSettings:
     jerk_kick_time: float = 0.05
     min_frames: int = 10
     retune_after_release: bool = True
+    shot_pieces: int = 0
+    piece_min_frames: int = 20
 
 
 # ----------------------------------------------------------------------------- input
@@ -249,6 +265,23 @@ def event_step_model(
     return StepModel(F, Q0, G), start
 
 
+def piece_bounds(n: int, start: int, release_index: int | None, pieces: int,
+                 min_frames: int) -> np.ndarray:
+    """Frame bounds ``0 = b0 < … < bP = n`` of the stretches with their own process noise:
+    the rest and the first part of the shot, up to ``pieces`` equal parts of the shot
+    (``start`` to ``release_index``, each at least ``min_frames`` frames), the flight after
+    the release (if at least ``min_frames`` frames, else joined to the shot)."""
+    end = n if release_index is None else int(release_index)
+    shot = end - start
+    count = int(np.clip(shot // max(min_frames, 1), 1, max(pieces, 1)))
+    inner = start + np.round(shot * np.arange(1, count) / count).astype(int)
+    bounds = [0, *inner.tolist()]
+    if end < n and n - end >= min_frames and end > bounds[-1]:
+        bounds.append(end)
+    bounds.append(n)
+    return np.unique(np.asarray(bounds, dtype=int))
+
+
 def _priors(
     Z: np.ndarray, sd: np.ndarray, k: int, rest: bool, acc_sd: np.ndarray, rate_sd: np.ndarray,
     jerk_sd: np.ndarray,
@@ -394,19 +427,54 @@ def smooth(
                 est[a] = e
         return est  # type: ignore[return-value]
 
-    def final_pass(steps: StepModel, est: list[NoiseEstimate]):
+    def tune_pieces(steps: StepModel, est: list[NoiseEstimate], start: int,
+                    rel_index: int | None, pieces: bool = True
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """λ per angle and frame (A, n) to use and the maximum-likelihood one, and the
+        bounds; one λ per angle where ``q`` is given or pieces are off."""
+        lam_use = np.array([[e.lam] for e in est]) * np.ones((A, n))
+        lam_ml = np.array([[e.lam_ml] for e in est]) * np.ones((A, n))
+        free = [a for a in range(A) if not np.isfinite(q_given[a])]
+        bounds = piece_bounds(n, start, rel_index, settings.shot_pieces,
+                              settings.piece_min_frames)
+        if not pieces or settings.shot_pieces < 1 or not free or bounds.size <= 2:
+            return lam_use, lam_ml, np.array([0, n])
+        found = piecewise_noise(
+            Z[free], valid[free], weight[free], steps, bounds,
+            np.array([est[a].lam_ml for a in free]), np.array([est[a].r2 for a in free]),
+            kick[free], x0[free], P0[free], settings.noise,
+        )
+        piece = np.repeat(np.arange(bounds.size - 1), np.diff(bounds))
+        lam_use[free] = found.lam[:, piece]
+        lam_ml[free] = found.lam_ml[:, piece]
+        return lam_use, lam_ml, bounds
+
+    def final_pass(steps: StepModel, lam_use: np.ndarray, lam_ml: np.ndarray,
+                   est: list[NoiseEstimate], scan: bool = True):
         """Smoother with the chosen q (series 0..A-1) and, for the release scan, the
         maximum-likelihood q (A..2A-1): one batched pass costs about the same as one."""
-        lam = np.array([e.lam for e in est] + [e.lam_ml for e in est])
+        if not scan:
+            filt = batch_kalman_filter(
+                Z, valid, steps, lam_use * np.array([e.r2 for e in est])[:, None], kick,
+                np.array([e.r2 for e in est]), x0, P0, store=True)
+            return filt, backward_smoother(steps, filt, valid)
+        lam = np.concatenate([lam_use, lam_ml])
         r2 = np.tile([e.r2 for e in est], 2)
         two = np.r_[np.arange(A), np.arange(A)]
         filt = batch_kalman_filter(
-            Z[two], valid[two], steps, lam * r2, kick[two], r2, x0[two], P0[two], store=True
+            Z[two], valid[two], steps, lam * r2[:, None], kick[two], r2, x0[two], P0[two],
+            store=True,
         )
         return filt, backward_smoother(steps, filt, valid[two])
 
+    def release_index(rel_s: float | None) -> int | None:
+        return None if rel_s is None else int(np.searchsorted(ts, rel_s, side="right"))
+
     est = tune(steps, grid)
-    filt, sm = final_pass(steps, est)
+    scan = "release" not in given  # one q per angle for the release scan, pieces after it
+    lam_use, lam_ml, bounds = tune_pieces(steps, est, start, release_index(rel_s),
+                                          pieces=not scan)
+    filt, sm = final_pass(steps, lam_use, lam_ml, est, scan)
 
     if "release" in given:
         sources["release"] = "given" if release is not None else "given as none"
@@ -426,15 +494,19 @@ def smooth(
             release = float(t[0] + rel_s * tau)
             steps, start = event_step_model(ts, k, trig_s, rel_s, jerk_time)
             if settings.retune_after_release:
-                lam_ml = np.array([e.lam_ml for e in est])
+                ml = np.array([e.lam_ml for e in est])
                 step = settings.noise.log10_step / 2
-                local = 10.0 ** (np.log10(np.median(lam_ml)) + step * np.arange(-6, 7))
+                local = 10.0 ** (np.log10(np.median(ml)) + step * np.arange(-6, 7))
                 local = np.unique(np.concatenate([local, grid]))
-                local = local[(local > lam_ml.min() / 30) & (local < lam_ml.max() * 30)]
+                local = local[(local > ml.min() / 30) & (local < ml.max() * 30)]
                 est = tune(steps, 10.0 ** np.linspace(
                     np.log10(local.min()), np.log10(local.max()),
                     int(round(np.log10(local.max() / local.min()) / step)) + 1))
-            filt, sm = final_pass(steps, est)
+            lam_use, lam_ml, bounds = tune_pieces(steps, est, start, release_index(rel_s))
+            filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
+        elif settings.shot_pieces >= 1:
+            lam_use, lam_ml, bounds = tune_pieces(steps, est, start, None)
+            filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
 
     xs, Ps = sm.x[:, :A], sm.P[:, :A]
     if backend == "filterpy":
@@ -444,7 +516,7 @@ def smooth(
         Ps = np.empty_like(sm.P[:, :A])
         for a, e in enumerate(est):
             res = filterpy_filter_smoother(
-                Z[a], valid[a], steps, e.lam * e.r2, kick[a], e.r2, x0[a], P0[a]
+                Z[a], valid[a], steps, lam_use[a] * e.r2, kick[a], e.r2, x0[a], P0[a]
             )
             xs[:, a] = res["xs"]
             Ps[:, a] = res["Ps"]
@@ -489,6 +561,11 @@ def smooth(
                 "source": "given" if np.isfinite(q_given[a]) and np.isfinite(r2_given[a])
                 else "maximum likelihood",
                 "at_grid_edge": e.at_edge,
+                "pieces": [
+                    {"t_start": float(t[lo]), "t_end": float(t[hi - 1]),
+                     "q": float(lam_use[a, lo] * e.r2 / tau ** (2 * k - 1))}
+                    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)
+                ],
             }
             if e.at_edge:
                 notes.append(f"{name}: the likelihood maximum lies on the edge of the q grid")
