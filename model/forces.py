@@ -19,6 +19,8 @@ import pandas as pd
 from . import kinematics as kin
 from .dynamics import trough_f_g
 from .flight import projectile_in_flight
+from .frames import frame
+from .kinematics import Angle
 from .scene import Engine, Scene
 
 __all__ = [
@@ -38,59 +40,56 @@ __all__ = [
 
 E_Y = np.array([[0.0], [1.0]])
 
+#: The input columns of :func:`loads`: each angle, its rate and its acceleration.
+ANGLE_COLUMNS = (("theta", "theta_d", "theta_dd"), ("psi", "psi_d", "psi_dd"),
+                 ("phi", "phi_d", "phi_dd"))
+
 LOAD_COLUMNS = [
     "F_S_x", "F_S_y", "F_H_x", "F_H_y", "F_CM_x", "F_CM_y", "F_R_x", "F_R_y", "torque",
     "P_m", "P_M", "P_beam", "E_m", "E_M", "E_beam", "x_m", "y_m", "vx_m", "vy_m",
 ]
 
 
-def centre_of_mass_force(theta, theta_d, theta_dd, e: Engine, g: float) -> np.ndarray:
+def centre_of_mass_force(theta: Angle, e: Engine, g: float) -> np.ndarray:
     """``F_CM = m_b L_CM R_θ A_θ + m_b g e_y`` (paper, eq. (10)), N: the force the rest of the
     beam exerts on its centre-of-mass particle."""
-    return e.m_b * e.L_CM * kin.rotated_acceleration(theta, theta_d, theta_dd) + e.m_b * g * E_Y
+    return e.m_b * e.L_CM * theta.RA + e.m_b * g * E_Y
 
 
-def hinge_force(theta, psi, theta_d, psi_d, theta_dd, psi_dd, e: Engine, g: float) -> np.ndarray:
+def hinge_force(theta: Angle, psi: Angle, e: Engine, g: float) -> np.ndarray:
     """``F_H = −M L2 R_θ A_θ + M L3 R_ψ A_ψ + M g e_y`` (paper, eq. (11)), N: force from the
     beam on the counterweight at the hinge."""
-    return (-e.M * e.L2 * kin.rotated_acceleration(theta, theta_d, theta_dd)
-            + e.M * e.L3 * kin.rotated_acceleration(psi, psi_d, psi_dd) + e.M * g * E_Y)
+    return -e.M * e.L2 * theta.RA + e.M * e.L3 * psi.RA + e.M * g * E_Y
 
 
-def hinge_force_along_arm(theta, psi, theta_d, psi_d, theta_dd, e: Engine,
-                          g: float) -> np.ndarray:
+def hinge_force_along_arm(theta: Angle, psi: Angle, e: Engine, g: float) -> np.ndarray:
     """``(F_H·e_ψ) e_ψ``, N: eq. (11) projected on the counterweight arm, where the paper shows
     ``F_H ∥ e_ψ``. The projection holds no ψ̈ (``e_ψ·R_ψ A_ψ = −ψ̇²``), so it is the robust form
     for measured angles."""
-    e_psi = kin.unit(psi)
-    along = (-e.M * e.L2 * kin.dot(e_psi, kin.rotated_acceleration(theta, theta_d, theta_dd))
-             - e.M * e.L3 * psi_d * psi_d + e.M * g * e_psi[1])
-    return along * e_psi
+    along = (-e.M * e.L2 * kin.dot(psi.unit, theta.RA) - e.M * e.L3 * psi.rate * psi.rate
+             + e.M * g * psi.sin)
+    return along * psi.unit
 
 
-def sling_force_in_sling(theta, phi, theta_d, phi_d, theta_dd, phi_dd, e: Engine,
-                         g: float) -> np.ndarray:
+def sling_force_in_sling(theta: Angle, phi: Angle, e: Engine, g: float) -> np.ndarray:
     """``F_S = m L1 R_θ A_θ + m L4 R_φ A_φ + m g e_y`` (paper, eq. (13)), N: sling tension on the
     projectile in phase II."""
-    return (e.m * e.L1 * kin.rotated_acceleration(theta, theta_d, theta_dd)
-            + e.m * e.L4 * kin.rotated_acceleration(phi, phi_d, phi_dd) + e.m * g * E_Y)
+    return e.m * e.L1 * theta.RA + e.m * e.L4 * phi.RA + e.m * g * E_Y
 
 
-def sling_force_along_sling(theta, phi, theta_d, phi_d, theta_dd, e: Engine,
-                            g: float) -> np.ndarray:
+def sling_force_along_sling(theta: Angle, phi: Angle, e: Engine, g: float) -> np.ndarray:
     """``(F_S·e_φ) e_φ``, N: eq. (13) projected on the sling (``F_S ∥ e_φ``); holds no φ̈."""
-    e_phi = kin.unit(phi)
-    along = (e.m * e.L1 * kin.dot(e_phi, kin.rotated_acceleration(theta, theta_d, theta_dd))
-             - e.m * e.L4 * phi_d * phi_d + e.m * g * e_phi[1])
-    return along * e_phi
+    along = (e.m * e.L1 * kin.dot(phi.unit, theta.RA) - e.m * e.L4 * phi.rate * phi.rate
+             + e.m * g * phi.sin)
+    return along * phi.unit
 
 
-def sling_force_in_trough(theta, phi, theta_d, theta_dd, e: Engine) -> np.ndarray:
+def sling_force_in_trough(theta: Angle, phi: Angle, e: Engine) -> np.ndarray:
     """``F_S = m L1 (f θ̈ + g θ̇²)(e_x + tan φ e_y)`` (paper, eq. (16)), N: sling tension on the
     projectile dragged in the trough (phase I)."""
-    f, gg = trough_f_g(theta, phi, e)
-    a_x = e.L1 * (f * theta_dd + gg * theta_d * theta_d)
-    return e.m * a_x * np.array([np.ones_like(a_x), np.tan(phi)])
+    f, gg = trough_f_g(theta.value, phi.value, e)
+    a_x = e.L1 * (f * theta.acc + gg * theta.rate * theta.rate)
+    return e.m * a_x * np.array([np.ones_like(a_x), phi.sin / phi.cos])
 
 
 def trough_normal_force(F_S_y, e: Engine, g: float):
@@ -104,35 +103,30 @@ def pivot_reaction(F_H: np.ndarray, F_CM: np.ndarray, F_S: np.ndarray) -> np.nda
     return F_H + F_CM + F_S
 
 
-def torque_contributions(theta, psi, F_H: np.ndarray, F_S: np.ndarray, e: Engine,
-                         g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def torque_contributions(theta: Angle, psi: Angle, F_H: np.ndarray, F_S: np.ndarray,
+                         e: Engine, g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The three terms of the torque on the beam about the pivot (paper, eq. (19)), N m:
     hinge ``L2 F_H·e_θ⊥``, centre of mass ``−L_CM m_b g e_y·e_θ⊥``, spigot ``−L1 F_S·e_θ⊥``.
 
     A counterweight fixed rigidly to the beam pushes along no arm: its force acts at the
     counterweight, and the hinge term gains ``−L3 F_H·e_ψ⊥`` (zero for the hinged one, where
     ``F_H ∥ e_ψ``)."""
-    perp = kin.unit_perp(theta)
-    hinge = e.L2 * kin.dot(F_H, perp)
+    hinge = e.L2 * kin.dot(F_H, theta.perp)
     if e.fixed_counterweight:
-        hinge = hinge - e.L3 * kin.dot(F_H, kin.unit_perp(psi))
-    return hinge, -e.L_CM * e.m_b * g * perp[1], -e.L1 * kin.dot(F_S, perp)
+        hinge = hinge - e.L3 * kin.dot(F_H, psi.perp)
+    return hinge, -e.L_CM * e.m_b * g * theta.cos, -e.L1 * kin.dot(F_S, theta.perp)
 
 
-def energies(theta, psi, theta_d, psi_d, v_m: np.ndarray, y_m, e: Engine, g: float,
+def energies(theta: Angle, psi: Angle, v_m: np.ndarray, y_m, e: Engine, g: float,
              H: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Mechanical energy (kinetic + potential, potential zero on the ground) of the projectile,
     counterweight and beam, J (paper, Section 4)."""
     r_M = kin.counterweight_position(theta, psi, e, H)
-    v_M = kin.counterweight_velocity(theta, psi, theta_d, psi_d, e)
+    v_M = kin.counterweight_velocity(theta, psi, theta.rate, psi.rate, e)
     E_m = 0.5 * e.m * kin.dot(v_m, v_m) + e.m * g * y_m
     E_M = 0.5 * e.M * kin.dot(v_M, v_M) + e.M * g * r_M[1]
-    E_b = 0.5 * e.I * theta_d * theta_d + e.m_b * g * (H + e.L_CM * np.sin(theta))
+    E_b = 0.5 * e.I * theta.rate * theta.rate + e.m_b * g * (H + e.L_CM * theta.sin)
     return E_m, E_M, E_b
-
-
-def _col(df: pd.DataFrame, name: str) -> np.ndarray:
-    return df[name].to_numpy(dtype=float)
 
 
 def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projected"] = "direct",
@@ -163,60 +157,55 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
     ``torque_spigot``, and magnitudes ``*_abs``.
     """
     e, g, H = scene.engine, scene.g, scene.start.H
-    phase = angles["phase"].to_numpy()
-    th, th_d, th_dd = _col(angles, "theta"), _col(angles, "theta_d"), _col(angles, "theta_dd")
-    ps, ps_d, ps_dd = _col(angles, "psi"), _col(angles, "psi_d"), _col(angles, "psi_dd")
+    if form not in ("direct", "projected"):
+        raise ValueError(f"form must be 'direct' or 'projected', got {form!r}")
+    given = {name: angles[name].to_numpy() for name in angles.columns}
+    phase = given["phase"]
     in_trough, in_sling, free = phase == 1, phase == 2, phase == 3
     held = in_trough | in_sling
+    th = kin.Angle(*(given[k].astype(float, copy=False) for k in ANGLE_COLUMNS[0]))
+    ps = kin.Angle(*(given[k].astype(float, copy=False) for k in ANGLE_COLUMNS[1]))
+    ph = kin.Angle(*(np.where(held, given[k], 0.0) for k in ANGLE_COLUMNS[2]))
     with np.errstate(all="ignore"):
-        ph = np.where(held, _col(angles, "phi"), 0.0)
-        ph_d = np.where(held, _col(angles, "phi_d"), 0.0)
-        ph_dd = np.where(held, _col(angles, "phi_dd"), 0.0)
-        F_CM = centre_of_mass_force(th, th_d, th_dd, e, g)
-        if form not in ("direct", "projected"):
-            raise ValueError(f"form must be 'direct' or 'projected', got {form!r}")
+        F_CM = centre_of_mass_force(th, e, g)
         if form == "direct" or e.fixed_counterweight:
-            F_H = hinge_force(th, ps, th_d, ps_d, th_dd, ps_dd, e, g)
+            F_H = hinge_force(th, ps, e, g)
         else:
-            F_H = hinge_force_along_arm(th, ps, th_d, ps_d, th_dd, e, g)
-        F_S = np.zeros((2, len(th)))
+            F_H = hinge_force_along_arm(th, ps, e, g)
+        F_S = np.zeros((2, len(phase)))
         if in_sling.any():
-            if form == "direct":
-                F_sling = sling_force_in_sling(th, ph, th_d, ph_d, th_dd, ph_dd, e, g)
-            else:
-                F_sling = sling_force_along_sling(th, ph, th_d, ph_d, th_dd, e, g)
-            F_S = np.where(in_sling, F_sling, F_S)
+            sling = sling_force_in_sling if form == "direct" else sling_force_along_sling
+            F_S = np.where(in_sling, sling(th, ph, e, g), F_S)
         if in_trough.any():
-            F_S = np.where(in_trough, sling_force_in_trough(th, ph, th_d, th_dd, e), F_S)
+            F_S = np.where(in_trough, sling_force_in_trough(th, ph, e), F_S)
         F_R = pivot_reaction(F_H, F_CM, F_S)
         t_hinge, t_cm, t_spigot = torque_contributions(th, ps, F_H, F_S, e, g)
         N = t_hinge + t_cm + t_spigot
 
         r_m = kin.projectile_position(th, ph, e, H)
-        v_m = kin.projectile_velocity(th, ph, th_d, ph_d, e)
+        v_m = kin.projectile_velocity(th, ph, th.rate, ph.rate, e)
     if free.any() and e.m > 0.0:
         r_m, v_m = _in_flight(angles, r_m, v_m, held, free, scene, release_state)
     elif e.m == 0.0:  # dry fire: there is no projectile to place
         r_m, v_m = np.full_like(r_m, np.nan), np.full_like(v_m, np.nan)
 
-    v_M = kin.counterweight_velocity(th, ps, th_d, ps_d, e)
-    v_CM = kin.centre_of_mass_velocity(th, th_d, e)
+    v_M = kin.counterweight_velocity(th, ps, th.rate, ps.rate, e)
+    v_CM = kin.centre_of_mass_velocity(th, th.rate, e)
     P_m = np.where(free, 0.0, kin.dot(F_S, v_m))
     P_M = kin.dot(F_H, v_M)
-    P_beam = N * th_d + e.m_b * g * v_CM[1]
-    E_m, E_M, E_b = energies(th, ps, th_d, ps_d, v_m, r_m[1], e, g, H)
+    P_beam = N * th.rate + e.m_b * g * v_CM[1]
+    E_m, E_M, E_b = energies(th, ps, v_m, r_m[1], e, g, H)
     if e.m == 0.0:
         E_m = np.zeros_like(E_M)
-    rest = scene.start
-    zero = np.zeros(1)
-    y_rest = (kin.projectile_position(np.array([rest.theta]), np.array([rest.phi]), e, H)[1]
+    rest, zero = scene.start, np.zeros(1)
+    rest_th = kin.Angle(np.array([rest.theta]), zero, zero)
+    rest_ps = kin.Angle(np.array([rest.psi]), zero, zero)
+    y_rest = (kin.projectile_position(rest_th, np.array([rest.phi]), e, H)[1]
               if scene.projectile == "sling" else zero)
-    E_m0, E_M0, E_b0 = energies(np.array([rest.theta]), np.array([rest.psi]), zero, zero,
-                                np.zeros((2, 1)), y_rest, e, g, H)
+    E_m0, E_M0, E_b0 = energies(rest_th, rest_ps, np.zeros((2, 1)), y_rest, e, g, H)
 
     F_N = np.where(in_trough, trough_normal_force(F_S[1], e, g), 0.0)
-    e_th, e_perp = kin.unit(th), kin.unit_perp(th)
-    e_phi = kin.unit(ph)
+    e_th, e_perp, e_phi = th.unit, th.perp, ph.unit
     out = {
         "F_S_x": F_S[0], "F_S_y": F_S[1], "F_H_x": F_H[0], "F_H_y": F_H[1],
         "F_CM_x": F_CM[0], "F_CM_y": F_CM[1], "F_R_x": F_R[0], "F_R_y": F_R[1],
@@ -234,11 +223,8 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
         out[f"{name}_perp"] = kin.dot(F, e_perp)
     for name in ("F_S", "F_H", "F_CM", "F_R", "F_M", "F_m"):
         out[f"{name}_abs"] = np.hypot(out[f"{name}_x"], out[f"{name}_y"])
-    columns = {name: angles[name].to_numpy() for name in angles.columns}
-    columns.update(out)
-    from .frames import frame  # one float block: the same frame as pd.DataFrame, faster
-
-    return frame(columns, index=angles.index)
+    given.update(out)
+    return frame(given, index=angles.index)
 
 
 def _in_flight(angles: pd.DataFrame, r_m: np.ndarray, v_m: np.ndarray, held: np.ndarray,

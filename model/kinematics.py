@@ -10,11 +10,15 @@ in m, velocities in m/s, accelerations in m/s².
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import cached_property
+
 import numpy as np
 
 from .scene import Engine
 
 __all__ = [
+    "Angle",
     "unit",
     "unit_perp",
     "rotated_acceleration",
@@ -29,13 +33,53 @@ __all__ = [
 ]
 
 
-def unit(a: np.ndarray) -> np.ndarray:
+@dataclass(frozen=True, eq=False)
+class Angle:
+    """One of the paper's angles over time: ``value`` (rad), ``rate`` (rad/s), ``acc``
+    (rad/s²), arrays of one length. Its unit vectors and rotated generalised acceleration are
+    computed once, on first use, and shared by every formula that needs them."""
+
+    value: np.ndarray
+    rate: np.ndarray
+    acc: np.ndarray
+
+    @cached_property
+    def cos(self) -> np.ndarray:
+        return np.cos(self.value)
+
+    @cached_property
+    def sin(self) -> np.ndarray:
+        return np.sin(self.value)
+
+    @cached_property
+    def unit(self) -> np.ndarray:
+        """``e_a = (cos a, sin a)``, shape (2, n)."""
+        return np.array([self.cos, self.sin])
+
+    @cached_property
+    def perp(self) -> np.ndarray:
+        """``e_a⊥ = (−sin a, cos a)``, shape (2, n)."""
+        return np.array([-self.sin, self.cos])
+
+    @cached_property
+    def RA(self) -> np.ndarray:
+        """``R_a A_a = ä e_a⊥ − ȧ² e_a`` (the paper's eq. (9)), rad/s² per unit length."""
+        w2 = self.rate * self.rate
+        return np.array([-self.cos * w2 - self.sin * self.acc,
+                         -self.sin * w2 + self.cos * self.acc])
+
+
+def unit(a: np.ndarray | Angle) -> np.ndarray:
     """``e_a = (cos a, sin a)``, shape (2, n)."""
+    if isinstance(a, Angle):
+        return a.unit
     return np.array([np.cos(a), np.sin(a)])
 
 
-def unit_perp(a: np.ndarray) -> np.ndarray:
+def unit_perp(a: np.ndarray | Angle) -> np.ndarray:
     """``e_a⊥ = (−sin a, cos a)``, shape (2, n)."""
+    if isinstance(a, Angle):
+        return a.perp
     return np.array([-np.sin(a), np.cos(a)])
 
 
@@ -45,9 +89,7 @@ def rotated_acceleration(a: np.ndarray, a_d: np.ndarray, a_dd: np.ndarray) -> np
     Multiplied by a length it is the acceleration of a point at that distance
     along ``e_a`` from a fixed point.
     """
-    c, s = np.cos(a), np.sin(a)
-    w2 = a_d * a_d
-    return np.array([-c * w2 - s * a_dd, -s * w2 + c * a_dd])
+    return Angle(a, a_d, a_dd).RA
 
 
 def dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:

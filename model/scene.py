@@ -20,7 +20,8 @@ from typing import Any
 
 from trebuchet.errors import TrebuchetInputError
 
-__all__ = ["Engine", "Start", "Release", "Flight", "Scene", "default_moment_of_inertia"]
+__all__ = ["Engine", "Start", "Release", "Flight", "Scene", "SCENE_KEYS",
+           "default_moment_of_inertia"]
 
 
 def default_moment_of_inertia(m_b: float, L1: float, L2: float) -> float:
@@ -194,6 +195,9 @@ _SECTIONS = {
     "flight": {"model", "diameter", "drag_coefficient", "air_density"},
 }
 _REQUIRED_ENGINE = ("L1", "L2", "L_CM", "L3", "M", "m_b")
+
+#: Every key a scene file may hold, by section (the parser's own list).
+SCENE_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in _SECTIONS.items()}
 
 
 class _Reader:

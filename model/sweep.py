@@ -48,8 +48,7 @@ from tqdm.auto import tqdm
 from trebuchet.errors import TrebuchetInputError
 
 from .dynamics import trough_sling_angle
-from .scene import _SECTIONS as SCENE_KEYS  # the scene parser's own list of keys
-from .scene import Scene, default_moment_of_inertia
+from .scene import SCENE_KEYS, Scene, default_moment_of_inertia
 from .simulate import resolve_rtol, simulate
 
 __all__ = [

@@ -77,7 +77,7 @@ def test_every_scene_key_is_a_parameter():
 
     names = {p.name for p in PARAMETERS}
     rad_aliases = {"theta", "psi", "phi", "velocity_angle"}  # the FMU takes the *_deg keys
-    for section, keys in scene_module._SECTIONS.items():
+    for section, keys in scene_module.SCENE_KEYS.items():
         for key in keys - rad_aliases:
             assert f"{section}.{key}" in names, f"[{section}] {key} has no FMU parameter"
 
