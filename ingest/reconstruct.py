@@ -46,12 +46,13 @@ from trebuchet.model.scene import Scene
 
 from .advisory import resolution_advisories
 from .lift_off import lift_off_sd, lift_off_time
+from .noise_tuning import NoiseSearch
 from .scene_fit import geometry_findings, warn_findings
 from .smooth import ANGLES, SUFFIXES, SmoothSettings, smooth
 from .uncertainty import propagate
 
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
-           "sling_track_end",
+           "sling_track_end", "PRESETS", "smoother_settings", "propagation_order",
            "STATE_COLUMNS", "FORMS"]
 
 FORMS = ("projected", "direct")
@@ -59,6 +60,22 @@ TROUGH = ("constraint", "measured")
 STATE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES]
 DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
 EVENT_KEYS = ("trigger", "lift_off", "release")
+#: preset -> (smoother settings, uncertainty propagation order); see ReconstructOptions.
+PRESETS: dict[str, tuple[SmoothSettings, int]] = {
+    "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0)), 1),
+    "default": (SmoothSettings(), 2),
+    "precise": (SmoothSettings(noise=NoiseSearch(log10_step=0.25), shot_pieces=3), 2),
+}
+
+
+def smoother_settings(options: ReconstructOptions) -> SmoothSettings:
+    """The smoother settings of ``options``: its own, else its preset's."""
+    return options.smooth if options.smooth is not None else PRESETS[options.preset][0]
+
+
+def propagation_order(options: ReconstructOptions) -> int:
+    """Order (1 or 2) of the uncertainty propagation of ``options``' preset."""
+    return PRESETS[options.preset][1]
 
 
 @dataclass(frozen=True)
@@ -73,7 +90,19 @@ class ReconstructOptions:
     a jump in the last frames of the track (which at 60 fps landed about 6 frames early
     on simulated logs, ``bench/ingest_accuracy.py``). ``resolution_fraction``: the advisory
     speaks where a load's sd exceeds this fraction of its peak. ``model``: the smoother's
-    model ("ca" or "cj"); ``smooth``: its settings.
+    model ("ca" or "cj"); ``smooth``: its settings (default: the preset's).
+
+    ``preset`` trades time for accuracy (``bench/ingest_trade.py`` measures it):
+
+    - ``"fast"``: coarse noise search (grid step 1 decade of ``q/r²``), first-order
+      uncertainty propagation (forward differences: 9 load evaluations instead of 18,
+      no second-order variance or bias term);
+    - ``"default"``: grid step ½ decade, second-order propagation (central differences,
+      variance and bias);
+    - ``"precise"``: grid step ¼ decade, the process noise chosen per piece of the shot
+      (``SmoothSettings.shot_pieces = 3``), second-order propagation.
+
+    An explicit ``smooth`` replaces the preset's smoother settings.
     """
 
     form: str = "projected"
@@ -83,8 +112,12 @@ class ReconstructOptions:
     release_at_track_end: bool = True
     model: str = "ca"
     smooth: SmoothSettings | None = None
+    preset: str = "default"
 
     def __post_init__(self) -> None:
+        if self.preset not in PRESETS:
+            raise TrebuchetInputError(f"reconstruct: preset must be one of "
+                                      f"{tuple(PRESETS)}, not {self.preset!r}")
         if self.form not in FORMS:
             raise TrebuchetInputError(f"reconstruct: form must be one of {FORMS}, "
                                       f"not {self.form!r}")
@@ -120,29 +153,28 @@ def _evaluate(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
     """``loads`` on ``state`` with rest rows (phase 0) as the scene's first phase at zero
     rates and accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ
     in the trough."""
-    frame = state.copy()
+    cols = {c: state[c].to_numpy(dtype=float) for c in state.columns}
     rest = phase == 0
     first = scene.phases[0]
     run_phase = np.where(rest, first, phase)
     if rest.any():
         for col in DERIVATIVE_COLUMNS:
-            frame.loc[rest, col] = 0.0
+            cols[col] = np.where(rest, 0.0, cols[col])
     if trough == "constraint" and first == 1:
         sel = run_phase == 1
         if sel.any():
             e, H = scene.engine, scene.start.H
-            th = frame["theta"].to_numpy()[sel]
-            th_d = frame["theta_d"].to_numpy()[sel]
-            th_dd = frame["theta_dd"].to_numpy()[sel]
+            th, th_d, th_dd = (cols[c][sel] for c in ("theta", "theta_d", "theta_dd"))
             with np.errstate(invalid="ignore", divide="ignore"):
                 ph = dyn.trough_sling_angle(th, e, H)
                 ph_d = dyn.trough_phi_d(th, ph, th_d, e)
                 ph_dd = dyn.trough_phi_dd(th, ph, th_d, ph_d, th_dd, e)
             for col, v in (("phi", ph), ("phi_d", ph_d), ("phi_dd", ph_dd)):
-                values = frame[col].to_numpy(dtype=float, copy=True)
+                values = cols[col].copy()
                 values[sel] = v
-                frame[col] = values
-    frame["phase"] = run_phase
+                cols[col] = values
+    cols["phase"] = run_phase
+    frame = pd.DataFrame(cols, index=state.index, copy=False)
     try:
         out = loads(frame, scene, form=form)
     except ValueError as exc:  # phase-3 rows without a sling row before them
@@ -210,7 +242,7 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     sub = state.iloc[rows].reset_index(drop=True)
     sub_cov = {a: c[rows] for a, c in cov.items()}
     prop = propagate(lambda s: _evaluate(s, trial[rows], scene, options.form, options.trough),
-                     sub, sub_cov, ["F_N"])
+                     sub, sub_cov, ["F_N"], order=propagation_order(options))
     return when, lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
 
 
@@ -277,7 +309,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     phase = shot_phases(t, scene, trigger, lift, release)
 
     prop = propagate(lambda s: _evaluate(s, phase, scene, options.form, options.trough),
-                     state, cov)
+                     state, cov, order=propagation_order(options))
     ev_var = (_event_variance(t, trigger, event_sd["trigger"], prop.value)
               + _event_variance(t, release, event_sd["release"], prop.value))
     sd = np.sqrt(prop.sd ** 2 + ev_var)
@@ -319,6 +351,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         "form": options.form,
         "trough": options.trough,
         "model": est.attrs.get("model"),
+        "preset": options.preset,
         "fps": fps,
         "advisories": [dataclasses.asdict(a) | {"rows": list(a.rows)} for a in advice],
         "validity": validity,
@@ -442,7 +475,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         if track_end is not None:
             smooth_events["release"] = track_end[0]
     est = smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
-                 settings=options.smooth)
+                 settings=smoother_settings(options))
     if track_end is not None:
         est.attrs["event_sources"]["release"] = "end of the sling track"
     result = loads_from_smoothed(est, scene, events=given, options=options,

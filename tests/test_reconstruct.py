@@ -206,3 +206,15 @@ def test_release_at_the_end_of_the_sling_track(horsdal):
     err = r.attrs["events"]["release"] - truth.attrs["events"]["release"]
     assert abs(err) <= 0.5 / 60
     assert 0 < r.attrs["event_sd"]["release"] <= 1 / 60
+
+
+def test_presets_are_named_and_trade_order(horsdal):
+    log, truth = simulated_log(horsdal, 120, 0.5, seed=3)
+    fast = _quiet(reconstruct, log, horsdal, options=ReconstructOptions(preset="fast"))
+    default = _quiet(reconstruct, log, horsdal)
+    assert fast.attrs["preset"] == "fast" and default.attrs["preset"] == "default"
+    # the fast preset (coarse tuning, first-order bands) still meets the accuracy target
+    assert np.isfinite(fast["F_R_abs_sd"].to_numpy()[truth["phase"].to_numpy() > 0]).all()
+    assert _rms_rel(fast, truth, "F_R_abs") < 0.05
+    with pytest.raises(TrebuchetInputError, match="preset"):
+        ReconstructOptions(preset="quick")
