@@ -15,6 +15,7 @@ import math
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -113,37 +114,46 @@ class Trajectory:
         return frame({"t": t, "phase": phase, **dict(zip(names, block, strict=True))})
 
 
-def _rhs_phase1(scene: Scene) -> Callable[[float, Sequence[float]], list[float]]:
+def _rhs_phase1(scene: Scene, lib: ModuleType = math) -> Callable:
+    """Phase I right-hand side for state (θ, ψ, θ̇, ψ̇): on lists of floats with ``lib=math``
+    (the integrator's steps), on arrays of shape (4, m) with ``lib=numpy`` (dense output)."""
     e, g, H = scene.engine, scene.g, scene.start.H
 
-    def rhs(t: float, y: Sequence[float]) -> list[float]:
+    def rhs(t: Any, y: Sequence[Any]) -> Any:
         th, ps, th_d, ps_d = y
-        _, _, th_dd, ps_dd, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H, math)
-        return [th_d, ps_d, th_dd, ps_dd]
+        _, _, th_dd, ps_dd, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H, lib)
+        return _pack(lib, th_d, ps_d, th_dd, ps_dd)
 
     return rhs
 
 
-def _rhs_phase2(scene: Scene) -> Callable[[float, Sequence[float]], list[float]]:
+def _rhs_phase2(scene: Scene, lib: ModuleType = math) -> Callable:
+    """Phase II right-hand side for state (θ, ψ, φ, θ̇, ψ̇, φ̇); see :func:`_rhs_phase1`."""
     e, g = scene.engine, scene.g
 
-    def rhs(t: float, y: Sequence[float]) -> list[float]:
+    def rhs(t: Any, y: Sequence[Any]) -> Any:
         th, ps, ph, th_d, ps_d, ph_d = y
-        th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, math)
-        return [th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd]
+        th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, lib)
+        return _pack(lib, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd)
 
     return rhs
 
 
-def _rhs_phase3(scene: Scene) -> Callable[[float, Sequence[float]], list[float]]:
+def _rhs_phase3(scene: Scene, lib: ModuleType = math) -> Callable:
+    """Phase III right-hand side for state (θ, ψ, θ̇, ψ̇); see :func:`_rhs_phase1`."""
     e, g = scene.engine, scene.g
 
-    def rhs(t: float, y: Sequence[float]) -> list[float]:
+    def rhs(t: Any, y: Sequence[Any]) -> Any:
         th, ps, th_d, ps_d = y
-        th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g, math)
-        return [th_d, ps_d, th_dd, ps_dd]
+        th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g, lib)
+        return _pack(lib, th_d, ps_d, th_dd, ps_dd)
 
     return rhs
+
+
+def _pack(lib: ModuleType, *parts: Any) -> Any:
+    """A derivative as the integrator's step wants it (a list) or as an (n, m) array."""
+    return list(parts) if lib is math else np.array(parts)
 
 
 def _event(fun: Callable[[float, Any], float], direction: float) -> Callable:
@@ -206,10 +216,13 @@ def _velocity_angle_event(scene: Scene, angle: float) -> Callable:
     return _event(climb, 1.0)
 
 
-def _solve(rhs: Callable, t0: float, t1: float, y0: Sequence[float], events: list[Callable],
-           rtol: float, method: str, first_step: float | None = None) -> Any:
-    """DOP853 (default): the lean integrator of :mod:`trebuchet.model.integrator`, the same
-    method as scipy's at a fraction of the overhead; ``"scipy-DOP853"`` or any other
+def _solve(rhs: tuple[Callable, Callable], t0: float, t1: float, y0: Sequence[float],
+           events: list[Callable], rtol: float, method: str,
+           first_step: float | None = None) -> Any:
+    """``rhs`` is the right-hand side on floats and on arrays (for the dense output of all
+    steps at once). DOP853 (default): the lean integrator of
+    :mod:`trebuchet.model.integrator`, the same method as scipy's at a fraction of the
+    overhead; ``"scipy-DOP853"`` or any other
     ``solve_ivp`` method name: ``scipy.integrate.solve_ivp``.
 
     ``first_step`` (s) carries the step size across a phase change: the automatic first-step
@@ -217,11 +230,12 @@ def _solve(rhs: Callable, t0: float, t1: float, y0: Sequence[float], events: lis
     catch it on a first step (energy errors of 1e-7 of ΔU were seen)."""
     if first_step is not None:
         first_step = min(first_step, t1 - t0)
+    rhs, rhs_arrays = rhs
     if method == "DOP853":
         from .integrator import solve
 
         return solve(rhs, (t0, t1), y0, rtol=rtol, atol=rtol * 1e-2, dense_output=True,
-                     events=events, first_step=first_step)
+                     events=events, first_step=first_step, vectorized_fun=rhs_arrays)
     return solve_ivp(rhs, (t0, t1), y0, method=method.removeprefix("scipy-"), rtol=rtol,
                      atol=rtol * 1e-2, dense_output=True, events=events or None,
                      first_step=first_step)
@@ -278,7 +292,8 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     # Phase III: beam and counterweight swing on; the projectile flies (or there is none).
     t_end = t0 + after_release
     if after_release > 0.0 or not phases:
-        sol = _solve(_rhs_phase3(scene), t0, t_end, beam, [], rtol, method,
+        sol = _solve((_rhs_phase3(scene), _rhs_phase3(scene, np)), t0, t_end, beam, [], rtol,
+                     method,
                      phases[-1].last_step if phases else None)
         _check(sol, scene, "phase III")
         phases.append(PhaseSolution(3, t0, t_end, sol.sol, sol.nfev))
@@ -295,7 +310,8 @@ def _phase_trough(scene: Scene, beam: list[float], rtol: float, method: str,
     e, rel = scene.engine, scene.release
     t_rel = rel.time if rel.time is not None else math.inf
     ev = [_lift_off_event(scene), _sling_upright_event(scene)]
-    sol = _solve(_rhs_phase1(scene), 0.0, MAX_SHOT, beam, ev, rtol, method)
+    sol = _solve((_rhs_phase1(scene), _rhs_phase1(scene, np)), 0.0, MAX_SHOT, beam, ev, rtol,
+                 method)
     _check(sol, scene, "phase I")
     if sol.status != 1:
         raise TrebuchetInputError(f"{scene.source}: the projectile did not lift off within "
@@ -334,7 +350,8 @@ def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float],
     t_stop = min(t_rel, MAX_SHOT) if rel.velocity_angle is None else MAX_SHOT
     th, ps, th_d, ps_d = beam
     ph, ph_d = sling
-    sol = _solve(_rhs_phase2(scene), t0, t_stop, [th, ps, ph, th_d, ps_d, ph_d], ev, rtol,
+    sol = _solve((_rhs_phase2(scene), _rhs_phase2(scene, np)), t0, t_stop,
+                 [th, ps, ph, th_d, ps_d, ph_d], ev, rtol,
                  method, phases[-1].last_step if phases else None)
     _check(sol, scene, "phase II")
     hits = [(te[0], ye[0], k) for k, (te, ye) in enumerate(zip(sol.t_events, sol.y_events,
