@@ -195,3 +195,20 @@ def test_dense_solution_pickles_without_fun():
     t = np.linspace(0.0, 3.0, 31)
     back = pickle.loads(pickle.dumps(res.sol))
     np.testing.assert_array_equal(back(t), res.sol(t))
+
+
+def test_vectorised_dense_output_equals_the_step_by_step_one():
+    """Coefficients built for all steps at once through the array right-hand side equal those
+    built step by step through the float one."""
+    def pendulum(t, y):
+        return [y[1], -math.sin(y[0]) - 0.1 * y[1]]
+
+    def pendulum_arrays(t, y):
+        return np.array([y[1], -np.sin(y[0]) - 0.1 * y[1]])
+
+    plain = solve(pendulum, (0.0, 10.0), [2.0, 0.0], rtol=1e-10, atol=1e-12)
+    fast = solve(pendulum, (0.0, 10.0), [2.0, 0.0], rtol=1e-10, atol=1e-12,
+                 vectorized_fun=pendulum_arrays)
+    t = np.linspace(0.0, 10.0, 997)
+    assert np.allclose(fast.sol(t), plain.sol(t), rtol=0, atol=1e-13)
+    assert fast.sol.nfev == plain.sol.nfev  # three extra stages per step either way
