@@ -44,7 +44,7 @@ import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.figures_draw import BAND_SD, shot_events
-from trebuchet.model.scene import Scene
+from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import Trajectory, integrate, simulate
 
 __all__ = ["Quantity", "QUANTITIES", "METRIC_COLUMNS", "CONTRACT_COLUMNS", "CompareOptions",
@@ -379,15 +379,6 @@ def compare_measured(measured: pd.DataFrame, scene: Scene, options: CompareOptio
     return table, predicted
 
 
-def _scene(scene: Scene | str | Path) -> Scene:
-    if isinstance(scene, Scene):
-        return scene
-    if isinstance(scene, str | Path):
-        return Scene.from_toml(scene)
-    raise TrebuchetInputError(f"compare: expected a Scene or a scene file, got "
-                              f"{type(scene).__name__}")
-
-
 def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *,
             options: CompareOptions | None = None,
             progress: Callable[[str], None] | None = None,
@@ -413,7 +404,7 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     """
     from .reconstruct import reconstruct  # filterpy and the smoother load on first use
 
-    scene = _scene(scene)
+    scene = as_scene(scene, "compare")
     say = progress or (lambda message: None)
     name = Path(str(log_or_path)).name if not isinstance(log_or_path, pd.DataFrame) else "log"
     say(f"reconstructing the loads of {name}")

@@ -20,7 +20,7 @@ from typing import Any
 
 from trebuchet.errors import TrebuchetInputError
 
-__all__ = ["Engine", "Start", "Release", "Flight", "Scene", "SCENE_KEYS",
+__all__ = ["Engine", "Start", "Release", "Flight", "Scene", "SCENE_KEYS", "as_scene",
            "default_moment_of_inertia"]
 
 
@@ -183,6 +183,17 @@ class Scene:
                               "drag_coefficient": f.drag_coefficient,
                               "air_density": f.air_density}
         return data
+
+
+def as_scene(scene: Scene | str | Path, what: str = "trebuchet") -> Scene:
+    """A :class:`Scene` as given, or loaded from a scene file's path; ``what`` names the caller
+    in the error for anything else."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, str | Path):
+        return Scene.from_toml(scene)
+    raise TrebuchetInputError(f"{what}: expected a Scene or a scene file, got "
+                              f"{type(scene).__name__}")
 
 
 # --------------------------------------------------------------------------- parsing
