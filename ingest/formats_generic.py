@@ -26,10 +26,9 @@ from trebuchet.errors import TrebuchetInputError
 from .log_mapping import Candidate, angle_default
 from .log_table import (
     Line,
-    check_row_lengths,
+    header_and_rows,
     numeric_column,
     sniff_delimiter,
-    table_lines,
 )
 from .log_time import frames_to_time
 from .log_units import angle_factor, split_unit, time_factor
@@ -45,13 +44,8 @@ def read_generic(path: str | Path, numbered: list[tuple[int, str]], fps: float |
     if not numbered:
         raise TrebuchetInputError(f"{path}: no header row (only comment lines)")
     delimiter = sniff_delimiter(numbered[0][1])
-    header_line, *data = table_lines(numbered, delimiter)
+    header_line, data = header_and_rows(path, numbered, delimiter)
     header = header_line.cells
-    if not data:
-        raise TrebuchetInputError(
-            f"{path}: only a header row (row {header_line.number}), no data rows"
-        )
-    check_row_lengths(path, data, len(header))
     names = [split_unit(h) for h in header]
     time_cols = [i for i, (n, _) in enumerate(names) if n.lower() in TIME_NAMES]
     frame_cols = [i for i, (n, _) in enumerate(names) if n.lower() in FRAME_NAMES]

@@ -31,7 +31,7 @@ import numpy as np
 from trebuchet.errors import TrebuchetInputError
 
 from .log_mapping import Candidate, role_default
-from .log_table import Line, check_row_lengths, numeric_column, sniff_delimiter, table_lines
+from .log_table import Line, header_and_rows, numeric_column, sniff_delimiter, table_lines
 from .log_time import check_time, snap_rounded_times
 from .log_units import split_unit, time_factor
 from .parsed_log import LogSource
@@ -53,13 +53,8 @@ def looks_like_kinovea(numbered: list[tuple[int, str]]) -> bool:
 def read_kinovea(path: str | Path, numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
     """Read a Kinovea trajectory CSV (see the module doc)."""
     delimiter = sniff_delimiter(numbered[0][1])
-    header_line, *data = table_lines(numbered, delimiter)
+    header_line, data = header_and_rows(path, numbered, delimiter)
     header = header_line.cells
-    if not data:
-        raise TrebuchetInputError(
-            f"{path}: only a header row (row {header_line.number}), no data rows"
-        )
-    check_row_lengths(path, data, len(header))
     rows = np.array([line.number for line in data])
     raw = numeric_column(path, data, 0, header[0])
     _, unit = split_unit(header[0])

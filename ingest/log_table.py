@@ -153,3 +153,16 @@ def check_row_lengths(path: str | Path, lines: list[Line], n_columns: int) -> No
                 f"{path}, row {line.number}: {len(line.cells)} cells, but the header has "
                 f"{n_columns} columns (extra value {extra[0]!r})"
             )
+
+
+def header_and_rows(path: str | Path, numbered: list[tuple[int, str]],
+                    delimiter: str) -> tuple[Line, list[Line]]:
+    """The header line and the data lines of a one-header table, every data line as long as
+    the header; an error naming the file when there is no data row."""
+    header_line, *data = table_lines(numbered, delimiter)
+    if not data:
+        raise TrebuchetInputError(
+            f"{path}: only a header row (row {header_line.number}), no data rows"
+        )
+    check_row_lengths(path, data, len(header_line.cells))
+    return header_line, data
