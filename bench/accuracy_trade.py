@@ -1,6 +1,7 @@
-"""Speed against accuracy of the simulator: every accuracy preset and solver, timed, with its
-error in lift-off time, release speed, peak sling tension and peak pivot reaction against a very
-tight reference run (lean DOP853 at rtol 1e-13).
+"""Speed against accuracy of the simulator, for every accuracy preset and solver.
+
+Each setting is timed and its error in lift-off time, release speed, peak sling tension and
+peak pivot reaction measured against a very tight reference run (lean DOP853 at rtol 1e-13).
 
 ``python -m bench accuracy_trade`` writes ``accuracy_trade.md``/``.csv`` and
 ``accuracy_trade.png`` (error against time per shot: settings up and to the right of another
