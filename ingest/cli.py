@@ -15,7 +15,7 @@ from trebuchet.output import write_csv
 
 from .reconstruct import FORMS, TROUGH, reconstruct
 
-__all__ = ["register", "forces_summary", "parse_pairs"]
+__all__ = ["register", "forces_summary", "parse_pairs", "add_log_arguments", "log_options"]
 
 ANGLE_NAMES = ("theta", "psi", "phi")
 POINT_ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
@@ -28,16 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "forces", help="internal forces, with their sd, from a video angle log",
         description="Read an angle log, smooth it, find trigger, lift-off and release, and "
                     "write every force, torque and power with its standard deviation.")
-    p.add_argument("log", help="angle log (generic CSV, Tracker, Kinovea or DeepLabCut)")
-    p.add_argument("--scene", required=True, help="scene file (TOML) of the engine filmed")
+    add_log_arguments(p)
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
-    p.add_argument("--fps", type=float, help="frame rate, for logs with frame numbers only")
-    p.add_argument("--column", action="append", default=[], metavar="NAME=ANGLE",
-                   help="the file's column or track NAME holds ANGLE (theta, psi or phi); "
-                        "repeatable")
-    p.add_argument("--point", action="append", default=[], metavar="ROLE=NAME",
-                   help="the file's point NAME is ROLE (pivot, spigot, hinge, counterweight, "
-                        "projectile); repeatable")
     p.add_argument("--form", choices=FORMS, default=None,
                    help="force formulas: projected on the arms (default) or the paper's direct")
     p.add_argument("--trough", choices=TROUGH, default=None,
@@ -49,6 +41,30 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=_forces)
 
 
+def add_log_arguments(p: argparse.ArgumentParser) -> None:
+    """The arguments every command that reads a log takes (CONTRACT.md: ``forces``,
+    ``reconstruct`` and ``compare`` take the same): LOG, --scene, --fps, --column, --point."""
+    p.add_argument("log", help="angle log (generic CSV, Tracker, Kinovea or DeepLabCut)")
+    p.add_argument("--scene", required=True, help="scene file (TOML) of the engine filmed")
+    p.add_argument("--fps", type=float, help="frame rate, for logs with frame numbers only")
+    p.add_argument("--column", action="append", default=[], metavar="NAME=ANGLE",
+                   help="the file's column or track NAME holds ANGLE (theta, psi or phi); "
+                        "repeatable")
+    p.add_argument("--point", action="append", default=[], metavar="ROLE=NAME",
+                   help="the file's point NAME is ROLE (pivot, spigot, hinge, counterweight, "
+                        "projectile); repeatable")
+
+
+def log_options(args: argparse.Namespace) -> dict[str, object]:
+    """``fps``, ``columns`` and ``points`` for :func:`read_log` from the log arguments, each
+    checked with an error naming the option."""
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
+        raise TrebuchetInputError(f"--fps {args.fps:g}: must be a positive frame rate")
+    return {"fps": args.fps,
+            "columns": parse_pairs(args.column, "--column", ANGLE_NAMES, "right"),
+            "points": parse_pairs(args.point, "--point", POINT_ROLES, "left")}
+
+
 def parse_pairs(items: list[str], option: str, allowed: tuple[str, ...],
                 value_side: str) -> dict[str, str] | None:
     """``["NAME=theta", ...]`` as ``{NAME: "theta"}`` (``value_side="right"``: the allowed
@@ -58,8 +74,9 @@ def parse_pairs(items: list[str], option: str, allowed: tuple[str, ...],
     out: dict[str, str] = {}
     for item in items:
         if "=" not in item:
-            raise TrebuchetInputError(f"{option} {item!r}: expected "
-                                      + ("NAME=ANGLE" if value_side == "right" else "ROLE=NAME"))
+            form = "NAME=ANGLE with ANGLE" if value_side == "right" else "ROLE=NAME with ROLE"
+            raise TrebuchetInputError(f"{option} {item!r}: expected {form} one of "
+                                      + ", ".join(allowed))
         if value_side == "right":
             name, word = item.rsplit("=", 1)
             key, value = name.strip(), word.strip()
@@ -145,14 +162,11 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
 
 
 def _forces(args: argparse.Namespace) -> int:
-    columns = parse_pairs(args.column, "--column", ANGLE_NAMES, "right")
-    points = parse_pairs(args.point, "--point", POINT_ROLES, "left")
-    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
-        raise TrebuchetInputError(f"--fps {args.fps:g}: must be a positive frame rate")
+    options = log_options(args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = reconstruct(args.log, args.scene, fps=args.fps, columns=columns, points=points,
-                             events=_event_args(args), form=args.form, trough=args.trough)
+        result = reconstruct(args.log, args.scene, **options, events=_event_args(args),
+                             form=args.form, trough=args.trough)
     write_csv(result, args.output)
     summary = forces_summary(result, args.output)
     print(summary)

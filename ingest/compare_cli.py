@@ -10,48 +10,26 @@ import math
 import sys
 import time
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.figures import FIGURES
 from trebuchet.model.report_cli import CAPTIONS
 from trebuchet.model.scene import Scene
 
+from .cli import add_log_arguments, log_options
 from .compare import ALIGN_MODES, RELEASE_MODES, CompareOptions, compare, event_table
 from .report import write_report
 
-__all__ = ["register", "compare_report", "parse_pairs", "ANGLE_MISFIT_ADVISORY"]
+__all__ = ["register", "compare_report", "ANGLE_MISFIT_ADVISORY"]
 
 ANGLE_MISFIT_ADVISORY = 4.0  # sd² per row: above this the angles themselves disagree
-ANGLES = ("theta", "psi", "phi")
-POINTS = ("pivot", "spigot", "hinge", "counterweight", "projectile")
 
 
 def _stderr(message: str) -> None:
     print(f"trebuchet compare: {message}", file=sys.stderr, flush=True)
-
-
-def parse_pairs(items: Sequence[str] | None, option: str, *, key_side: str,
-                allowed: Sequence[str]) -> dict[str, str] | None:
-    """``NAME=VALUE`` arguments as a dict. ``key_side="left"``: the left side must be one of
-    ``allowed`` (``--point pivot=axle`` -> {"pivot": "axle"}); ``"right"``: the right side
-    (``--column beam=theta`` -> {"beam": "theta"}; the name may itself hold '=')."""
-    if not items:
-        return None
-    out: dict[str, str] = {}
-    for item in items:
-        left, sep, right = (item.rpartition("=") if key_side == "right"
-                            else item.partition("="))
-        fixed = right if key_side == "right" else left
-        form = "NAME=" + "|".join(allowed) if key_side == "right" else \
-            "|".join(allowed) + "=NAME"
-        if not sep or not left or not right or fixed not in allowed:
-            raise TrebuchetInputError(f"{option} {item!r}: expected {form}")
-        out[left] = right
-    return out
 
 
 def _advisories(caught: list[warnings.WarningMessage], predicted: pd.DataFrame) -> list[str]:
@@ -115,18 +93,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "write DIR/index.html with the figures, DIR/metrics.csv (peaks, RMS "
                     "differences, peak timing, fraction outside the measured ±2 sd band) "
                     "and DIR/events.csv. The directory is written whole or not at all.")
-    p.add_argument("log", help="angle log or tracking-tool export (CSV, Tracker, Kinovea, "
-                               "DeepLabCut)")
-    p.add_argument("--scene", required=True, help="scene file (TOML) of the filmed engine")
+    add_log_arguments(p)
     p.add_argument("-o", "--output", required=True, help="report directory to write")
-    p.add_argument("--fps", type=float, default=None,
-                   help="frame rate, for logs with frame numbers and no time column")
-    p.add_argument("--column", action="append", metavar="NAME=ANGLE",
-                   help="which column or track of the log holds theta, psi or phi "
-                        "(repeatable)")
-    p.add_argument("--point", action="append", metavar="POINT=NAME",
-                   help="which tracked point is the pivot, spigot, hinge, counterweight or "
-                        "projectile (repeatable)")
     p.add_argument("--release", choices=RELEASE_MODES, default="auto",
                    help="auto (default): a scene's release time is replaced by the log's "
                         "release, a velocity-angle rule is kept; log: always the log's; "
@@ -138,12 +106,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=_compare)
 
 
-def _options(args: argparse.Namespace) -> dict[str, object]:
-    return {"fps": args.fps,
-            "columns": parse_pairs(args.column, "--column", key_side="right", allowed=ANGLES),
-            "points": parse_pairs(args.point, "--point", key_side="left", allowed=POINTS)}
-
-
 def _summary(table: pd.DataFrame) -> Mapping[str, float]:
     return {"worst_rms_rel": float(table["rms_difference_rel"].max()),
             "worst_outside": float(table["outside_band_fraction"].max())}
@@ -151,9 +113,7 @@ def _summary(table: pd.DataFrame) -> Mapping[str, float]:
 
 def _compare(args: argparse.Namespace) -> int:
     start = time.monotonic()
-    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
-        raise TrebuchetInputError(f"--fps {args.fps:g}: the frame rate must be positive")
-    reconstruct_options = _options(args)
+    reconstruct_options = log_options(args)
     scene = Scene.from_toml(args.scene)
     options = CompareOptions(release=args.release, align=args.align)
     out, table = compare_report(args.log, scene, args.output, options=options,

@@ -15,7 +15,8 @@ import pytest  # noqa: E402
 from tests.conftest import HORSDAL, ROOT  # noqa: E402
 from trebuchet import cli  # noqa: E402
 from trebuchet.errors import TrebuchetInputError  # noqa: E402
-from trebuchet.ingest import compare_cli  # noqa: E402
+from trebuchet.ingest import compare_cli
+from trebuchet.ingest.cli import log_options  # noqa: E402
 from trebuchet.ingest.compare import CONTRACT_COLUMNS, QUANTITIES  # noqa: E402
 from trebuchet.model.figures import FIGURES  # noqa: E402
 
@@ -85,9 +86,9 @@ def test_a_failure_midway_leaves_no_report_and_keeps_an_old_one(run, tmp_path, m
 
 
 @pytest.mark.parametrize("extra, expected", [
-    (["--column", "beam=rho"], "--column 'beam=rho': expected NAME=theta|psi|phi"),
-    (["--point", "tip"], "--point 'tip': expected pivot|spigot|hinge|counterweight"),
-    (["--fps", "-5"], "--fps -5: the frame rate must be positive"),
+    (["--column", "beam=rho"], "--column 'beam=rho': 'rho' is not one of theta, psi, phi"),
+    (["--point", "tip"], "--point 'tip': expected ROLE=NAME with ROLE one of pivot, spigot, hinge"),
+    (["--fps", "-5"], "--fps -5: must be a positive frame rate"),
 ])
 def test_bad_arguments_exit_2_with_one_line(run, tmp_path, capsys, extra, expected):
     out = tmp_path / "report"
@@ -110,12 +111,17 @@ def test_bad_scene_and_missing_log_exit_2_naming_the_file(run, tmp_path, capsys)
     assert not out.exists()
 
 
-def test_parse_pairs():
-    assert compare_cli.parse_pairs(None, "--column", key_side="right", allowed=("theta",)) \
-        is None
-    assert compare_cli.parse_pairs(["a=b=theta", "arm=psi"], "--column", key_side="right",
-                                   allowed=("theta", "psi")) == {"a=b": "theta", "arm": "psi"}
-    assert compare_cli.parse_pairs(["pivot=Beam/axle"], "--point", key_side="left",
-                                   allowed=("pivot",)) == {"pivot": "Beam/axle"}
+def test_log_options_are_those_of_forces():
+    """compare takes the same log arguments as forces (CONTRACT.md), parsed by the same code."""
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers()
+    compare_cli.register(sub)
+    args = parser.parse_args(["compare", "log.csv", "--scene", "s.toml", "-o", "out",
+                              "--column", "a=b=theta", "--column", "arm=psi",
+                              "--point", "pivot=Beam/axle", "--fps", "240"])
+    assert log_options(args) == {"fps": 240.0, "columns": {"a=b": "theta", "arm": "psi"},
+                                 "points": {"pivot": "Beam/axle"}}
+    bad = parser.parse_args(["compare", "log.csv", "--scene", "s.toml", "-o", "out",
+                             "--point", "=axle"])
     with pytest.raises(TrebuchetInputError, match="--point '=axle'"):
-        compare_cli.parse_pairs(["=axle"], "--point", key_side="left", allowed=("pivot",))
+        log_options(bad)
