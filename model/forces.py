@@ -16,6 +16,8 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
+from trebuchet.errors import TrebuchetInputError
+
 from . import kinematics as kin
 from .dynamics import trough_f_g
 from .flight import projectile_in_flight
@@ -159,6 +161,7 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
     e, g, H = scene.engine, scene.g, scene.start.H
     if form not in ("direct", "projected"):
         raise ValueError(f"form must be 'direct' or 'projected', got {form!r}")
+    _check_angles(angles)
     given = {name: angles[name].to_numpy() for name in angles.columns}
     phase = given["phase"]
     in_trough, in_sling, free = phase == 1, phase == 2, phase == 3
@@ -225,6 +228,21 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
         out[f"{name}_abs"] = np.hypot(out[f"{name}_x"], out[f"{name}_y"])
     given.update(out)
     return frame(given, index=angles.index)
+
+
+def _check_angles(angles: pd.DataFrame) -> None:
+    """The input :func:`loads` needs, with an error that names what is missing or wrong."""
+    need = ("t", "phase", *(c for cols in ANGLE_COLUMNS for c in cols))
+    missing = [c for c in need if c not in angles.columns]
+    if missing:
+        raise TrebuchetInputError("forces: the angles lack the column(s) " + ", ".join(missing)
+                                  + " (needed: " + " ".join(need) + ")")
+    phase = angles["phase"].to_numpy()
+    bad = ~np.isin(phase, (1, 2, 3))
+    if bad.any():
+        rows = np.flatnonzero(bad)
+        raise TrebuchetInputError(f"forces: phase must be 1 (trough), 2 (sling) or 3 (released); "
+                                  f"row {rows[0]} has {phase[rows[0]]} ({rows.size} rows in all)")
 
 
 def _in_flight(angles: pd.DataFrame, r_m: np.ndarray, v_m: np.ndarray, held: np.ndarray,

@@ -130,3 +130,20 @@ def test_events_located_to_solver_accuracy(shot):
             scene.release.velocity_angle, abs=1e-8)
     else:
         assert ev["release"] == scene.release.time
+
+
+def test_forces_on_bad_angles_name_the_problem(horsdal):
+    import pandas as pd
+
+    from trebuchet.errors import TrebuchetInputError
+    from trebuchet.model.forces import loads
+
+    run = simulate(horsdal, t_eval=[0.0, 0.5])
+    angles = run[["t", "phase", "theta", "psi", "phi", "theta_d", "psi_d", "phi_d",
+                  "theta_dd", "psi_dd", "phi_dd"]]
+    again = loads(angles, horsdal)
+    assert np.allclose(again.F_R_x, run.F_R_x) and np.allclose(again.torque, run.torque)
+    with pytest.raises(TrebuchetInputError, match="lack the column.*psi_dd"):
+        loads(angles.drop(columns=["psi_dd"]), horsdal)
+    with pytest.raises(TrebuchetInputError, match="row 1 has 7"):
+        loads(angles.assign(phase=pd.Series([1, 7])), horsdal)
