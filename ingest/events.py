@@ -43,6 +43,9 @@ class TriggerSearch:
     min_signal_to_noise: float = 20.0
     min_rest_frames: int = 3
     subframe_steps: int = 10
+    coarse_candidates: int = 200
+    max_fine_candidates: int = 400
+    profile_drop: float = 12.0
 
 
 @dataclass(frozen=True)
@@ -84,46 +87,48 @@ def robust_noise_sd(t: np.ndarray, z: np.ndarray) -> float:
     return float(1.4826 * mad)
 
 
-def _onset_sse(
-    t: np.ndarray, Z: np.ndarray, weights: np.ndarray, t0: np.ndarray
-) -> np.ndarray:
-    """Weighted residual sum of squares of the rest-then-cubic fit for each onset ``t0``.
+def _onset_sse(t: np.ndarray, z: np.ndarray, t0: np.ndarray) -> np.ndarray:
+    """Residual sum of squares (units of ``z``²) of the fit of a rest then a monotone
+    departure, for each candidate onset ``t0`` (C,); ``t`` (m,) s, ``z`` (m,) with NaN gaps.
 
-    ``Z`` (A, m) with NaN gaps, ``weights`` (A,) = 1/sd², ``t0`` (C,). Returns (C,).
+    Model: ``c`` before ``t0``; after it, ``c + s f(u)``, ``u = t - t0``, with the rate
+    ``f'(u) = u (p + (q - p) u / U)`` (acceleration ``p`` at the onset, rate
+    ``q U`` at the window's end ``U``) and ``p, q ≥ 0``: the acceleration jumps at the
+    onset, the rate is continuous and keeps its sign ``s`` (the direction in which the
+    angle has left rest at the end of the window) over the window. Least squares with
+    the two bounds, exactly, by the best feasible solution over the active sets.
     """
-    total = np.zeros(t0.size)
-    u = np.maximum(t[None, :] - t0[:, None], 0.0)  # (C, m)
-    X = np.stack([np.ones_like(u), u**2 / 2.0, u**3 / 6.0], axis=-1)  # (C, m, 3)
-    for z, wgt in zip(Z, weights, strict=True):
-        ok = np.isfinite(z)
-        Xa = X[:, ok, :]
-        y = z[ok] - np.median(z[ok][:5])
-        XtX = np.einsum("cmi,cmj->cij", Xa, Xa)
-        Xty = np.einsum("cmi,m->ci", Xa, y)
-        XtX = XtX + 1e-12 * np.trace(XtX, axis1=1, axis2=2)[:, None, None] * np.eye(3)
-        beta = np.linalg.solve(XtX, Xty[..., None])[..., 0]
-        sse = y @ y - np.einsum("ci,ci->c", beta, Xty)
-        total += wgt * sse
-    return total
+    ok = np.isfinite(z)
+    tv = t[ok]
+    y = z[ok] - np.median(z[ok][:5])
+    y = y * (1.0 if y[-1] >= 0 else -1.0)
+    scale = max(tv[-1] - tv[0], 1e-12)
+    u = np.maximum(tv[None, :] - t0[:, None], 0.0) / scale  # (C, m)
+    span = np.maximum((tv[-1] - t0) / scale, 1e-9)[:, None]
+    h2 = u**3 / (3.0 * span)
+    h1 = u**2 / 2.0 - h2
+    X = np.stack([np.ones_like(u), h1, h2], axis=-1)  # (C, m, 3)
+    XtX = np.einsum("cmi,cmj->cij", X, X)
+    Xty = np.einsum("cmi,m->ci", X, y)
+    yy = float(y @ y)
+    best = np.full(t0.size, yy - y.sum() ** 2 / y.size)  # constant only
+    for cols in ((0, 1, 2), (0, 1), (0, 2)):
+        idx = np.array(cols)
+        G = XtX[:, idx[:, None], idx[None, :]]
+        g = Xty[:, idx]
+        G = G + 1e-12 * np.trace(G, axis1=1, axis2=2)[:, None, None] * np.eye(idx.size)
+        beta = np.linalg.solve(G, g[..., None])[..., 0]
+        sse = yy - np.einsum("ci,ci->c", beta, g)
+        feasible = np.all(beta[:, 1:] >= 0.0, axis=1)
+        best = np.where(feasible & (sse < best), sse, best)
+    return np.maximum(best, 1e-300)
 
 
-def detect_trigger(
-    t: np.ndarray,
-    Z: np.ndarray,
-    sd: np.ndarray,
-    settings: TriggerSearch = TriggerSearch(),
-) -> float | None:
-    """Time (s, the log's time) at which the angles leave rest, or None.
-
-    ``t`` (n,) increasing, ``Z`` (A, n) angles (rad) with NaN gaps, ``sd`` (A,) their noise
-    sd (rad), e.g. from :func:`robust_noise_sd`. None when no angle moves clearly
-    (excursion below ``min_signal_to_noise`` sd) or the log starts in motion (fewer than
-    ``min_rest_frames`` frames before the fitted onset). The onset is resolved to
-    ``1/subframe_steps`` of a frame; its accuracy is about a frame at 0.1–2° noise.
-    """
-    n = t.size
-    ends = []
-    use = []
+def _fit_windows(Z: np.ndarray, sd: np.ndarray, settings: TriggerSearch
+                 ) -> tuple[list[int], list[int]]:
+    """The angles that move clearly and, for each, the last frame of its onset fit window
+    (see :class:`TriggerSearch`)."""
+    ends, use = [], []
     for a, z in enumerate(Z):
         ok = np.flatnonzero(np.isfinite(z))
         if ok.size < 8 or not np.isfinite(sd[a]) or sd[a] <= 0:
@@ -145,35 +150,82 @@ def detect_trigger(
         persistent = np.lib.stride_tricks.sliding_window_view(above, m).all(axis=1)
         if not persistent.any():
             continue
-        ends.append(ok[np.argmax(persistent)])
+        ends.append(int(ok[np.argmax(persistent)]))
         use.append(a)
+    return use, ends
+
+
+def trigger_estimate(
+    t: np.ndarray,
+    Z: np.ndarray,
+    sd: np.ndarray,
+    settings: TriggerSearch = TriggerSearch(),
+) -> tuple[float, float] | None:
+    """Time (s, the log's time) at which the angles leave rest and its sd (s), or None.
+
+    Each moving angle is fitted, over its own window from the first frame to where it has
+    clearly left rest, by a constant before the onset ``t0`` and the constant plus
+    ``Σ_{p=2..degree} b_p (t - t0)^p / p!`` after it (rate continuous, acceleration
+    jumping at ``t0``). With each angle's noise variance profiled out the log-likelihood
+    is ``ℓ(t0) = -Σ_angles (m_a/2) log SSE_a(t0)``; it is evaluated on a frame grid and
+    then at ``1/subframe_steps`` of a frame over every onset within ``profile_drop`` of the
+    maximum. The estimate is the mean of ``exp ℓ`` (a flat prior on ``t0``) over that
+    grid, the sd its spread: wide where the first motion is buried in the noise.
+
+    ``t`` (n,) increasing, ``Z`` (A, n) angles (rad) with NaN gaps, ``sd`` (A,) a rough
+    noise sd (rad) that sets the window, e.g. from :func:`robust_noise_sd`. None when no
+    angle moves clearly (excursion below ``min_signal_to_noise`` sd) or the log starts in
+    motion (fewer than ``min_rest_frames`` frames before the onset).
+    """
+    use, ends = _fit_windows(Z, sd, settings)
     if not use:
         return None
     end = int(max(ends))
     if end < settings.min_rest_frames:
         return None
-    tw = t[: end + 1]
-    wgt = 1.0 / np.asarray(sd)[use] ** 2
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    first_valid = min(int(np.flatnonzero(np.isfinite(Z[a]))[0]) for a in use)
+    lo_t = t[first_valid] - settings.min_rest_frames * dt  # a log in motion peaks here
+    hi_t = t[end]
+    if hi_t <= lo_t:
+        return None
 
-    def sse(t0: np.ndarray) -> np.ndarray:
+    def loglik(t0: np.ndarray) -> np.ndarray:
         total = np.zeros(t0.size)
-        for a, e, w in zip(use, ends, wgt, strict=True):
-            total += _onset_sse(t[: e + 1], Z[a : a + 1, : e + 1], np.array([w]), t0)
+        for a, e in zip(use, ends, strict=True):
+            z = Z[a, : e + 1]
+            m = int(np.isfinite(z).sum())
+            total -= 0.5 * m * np.log(_onset_sse(t[: e + 1], z, t0))
         return total
 
-    stride = max(1, (tw.size - 1) // 100)  # at most ~100 coarse candidates
-    coarse_idx = np.arange(0, tw.size - 1, stride)
-    best = int(coarse_idx[np.argmin(sse(tw[coarse_idx]))])
-    dt = np.median(np.diff(t)) if n > 1 else 1.0
-    lo = tw[max(best - stride, 0)]
-    hi = tw[min(best + stride, tw.size - 1)]
-    fine = np.linspace(lo, hi, int(2 * stride * settings.subframe_steps) + 1)
-    sse_f = sse(fine)
-    t0 = float(fine[np.argmin(sse_f)])
-    first_valid = min(np.flatnonzero(np.isfinite(z))[0] for z in Z[use])
-    if t0 - t[first_valid] < (settings.min_rest_frames - 0.5) * dt:
+    frames = int(np.ceil((hi_t - lo_t) / dt))
+    stride = max(1, frames // settings.coarse_candidates)
+    coarse = np.linspace(lo_t, hi_t, frames // stride + 1)
+    ll = loglik(coarse)
+    keep = np.flatnonzero(ll >= ll.max() - settings.profile_drop)
+    a_t = coarse[max(keep[0] - 1, 0)]
+    b_t = coarse[min(keep[-1] + 1, coarse.size - 1)]
+    step = max(dt / settings.subframe_steps, (b_t - a_t) / settings.max_fine_candidates)
+    fine = np.arange(a_t, b_t + 0.5 * step, step)
+    ll = loglik(fine)
+    w = np.exp(ll - ll.max())
+    w /= w.sum()
+    mean = float(w @ fine)
+    spread = float(np.sqrt(w @ (fine - mean) ** 2 + step**2 / 12.0))
+    if mean - t[first_valid] < (settings.min_rest_frames - 0.5) * dt:
         return None
-    return t0
+    return mean, spread
+
+
+def detect_trigger(
+    t: np.ndarray,
+    Z: np.ndarray,
+    sd: np.ndarray,
+    settings: TriggerSearch = TriggerSearch(),
+) -> float | None:
+    """The time (s) of :func:`trigger_estimate`, or None."""
+    found = trigger_estimate(t, Z, sd, settings)
+    return None if found is None else found[0]
 
 
 def jump_direction(k: int, delta: np.ndarray) -> np.ndarray:

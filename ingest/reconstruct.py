@@ -17,8 +17,8 @@ smoothed state, with
   (``trough="constraint"``; ``"measured"`` uses the smoothed φ);
 - **uncertainty**: every load's sd from the smoother's full per-angle covariance
   (:mod:`.uncertainty`), plus, on the frames next to a detected trigger or release, the
-  chance that the frame lies in the other phase (the event time's sd is
-  ``event_sd_frames`` frames);
+  chance that the frame lies in the other phase (the trigger's sd from its likelihood
+  profile, the release's ``event_sd_frames`` frames or the track-end gap / √12);
 - **checks**: angles that leave the scene's geometry and a slack sling
   (:mod:`.scene_fit`), and the resolution advisory (:mod:`.advisory`), both as
   :class:`~trebuchet.errors.ModelValidityWarning` and in ``attrs``.
@@ -83,8 +83,10 @@ class ReconstructOptions:
     """Settings of :func:`reconstruct`.
 
     ``form``: "projected" or "direct" (see the module doc). ``trough``: "constraint" or
-    "measured" φ in phase I. ``event_sd_frames``: sd of a detected trigger or release time,
-    in frames (a given event is exact). ``release_at_track_end``: when the sling's track
+    "measured" φ in phase I. ``event_sd_frames``: sd of a detected release time, in frames,
+    and of a detected trigger when the smoother does not give one (it gives the spread of
+    the trigger's likelihood profile, :func:`~trebuchet.ingest.events.trigger_estimate`);
+    a given event is exact. ``release_at_track_end``: when the sling's track
     ends while the others go on, the release is put between its last frame and the next
     (sd: the gap / √12) and handed to the smoother, instead of the smoother's search for
     a jump in the last frames of the track (which at 60 fps landed about 6 frames early
@@ -289,7 +291,8 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         release = _release_within_sling_track(t, est["phi"].to_numpy(dtype=float), release)
     fps = 1.0 / float(np.median(np.diff(t)))
     sd_event = options.event_sd_frames / fps
-    event_sd = {"trigger": 0.0 if "trigger" in given or trigger is None else sd_event,
+    trigger_sd = est.attrs.get("event_sd", {}).get("trigger", sd_event)
+    event_sd = {"trigger": 0.0 if "trigger" in given or trigger is None else trigger_sd,
                 "release": 0.0 if "release" in given or release is None
                 else (sd_event if release_sd is None else release_sd)}
     lift = None

@@ -38,9 +38,9 @@ from .events import (
     ReleaseSearch,
     TriggerSearch,
     detect_release,
-    detect_trigger,
     release_statistic,
     robust_noise_sd,
+    trigger_estimate,
 )
 from .kalman_batch import (
     StepModel,
@@ -338,7 +338,8 @@ def smooth(
     -------
     DataFrame with the log's rows and ``t``, and for each angle ``X`` in theta, psi, phi:
     ``X``, ``X_d``, ``X_dd`` and ``X_sd``, ``X_d_sd``, ``X_dd_sd``. ``attrs``:
-    ``events`` ({"trigger", "release"}: log time or None), ``event_sources``, ``noise``
+    ``events`` ({"trigger", "release"}: log time or None), ``event_sources``,
+    ``event_sd`` ({"trigger": sd (s) of a detected or given trigger}), ``noise``
     ({angle: {"q", "r_sd", "q_ml", "loglik", "source", "at_grid_edge"}}), ``cov``
     ({angle: (n, k, k) smoothed covariance of [angle, rate, acceleration(, jerk)] in SI,
     NaN outside the track}), ``model``, ``loglik`` (sum over angles), ``notes``.
@@ -381,11 +382,16 @@ def smooth(
 
     # trigger
     sources: dict[str, str] = {}
+    event_sd: dict[str, float] = {}
     if "trigger" in given:
         trigger = given["trigger"]
         sources["trigger"] = "given"
+        event_sd["trigger"] = 0.0
     else:
-        trigger = detect_trigger(t, Z, sd, settings.trigger)
+        found_trigger = trigger_estimate(t, Z, sd, settings.trigger)
+        trigger = None if found_trigger is None else found_trigger[0]
+        if found_trigger is not None:
+            event_sd["trigger"] = found_trigger[1]
         sources["trigger"] = "detected" if trigger is not None else "no rest found at the start"
     rest = trigger is not None
     trig_s = None if trigger is None else (trigger - t[0]) / tau
@@ -586,6 +592,7 @@ def smooth(
     if "lift_off" in given:
         out.attrs["events"]["lift_off"] = given["lift_off"]
     out.attrs["event_sources"] = sources
+    out.attrs["event_sd"] = event_sd
     out.attrs["noise"] = noise
     out.attrs["cov"] = cov
     out.attrs["model"] = model
