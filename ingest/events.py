@@ -43,8 +43,8 @@ class TriggerSearch:
     min_signal_to_noise: float = 20.0
     min_rest_frames: int = 3
     subframe_steps: int = 10
-    coarse_candidates: int = 200
-    max_fine_candidates: int = 400
+    coarse_candidates: int = 80
+    max_fine_candidates: int = 160
     profile_drop: float = 12.0
 
 
@@ -107,13 +107,16 @@ def _onset_sse(t: np.ndarray, z: np.ndarray, t0: np.ndarray) -> np.ndarray:
     span = np.maximum((tv[-1] - t0) / scale, 1e-9)[:, None]
     h2 = u**3 / (3.0 * span)
     h1 = u**2 / 2.0 - h2
-    X = np.stack([np.ones_like(u), h1, h2], axis=-1)  # (C, m, 3)
-    XtX = np.einsum("cmi,cmj->cij", X, X)
-    Xty = np.einsum("cmi,m->ci", X, y)
+    cols = (np.ones_like(u), h1, h2)
+    XtX = np.empty((t0.size, 3, 3))
+    for i in range(3):
+        for j in range(i, 3):
+            XtX[:, i, j] = XtX[:, j, i] = y.size if i == j == 0 else np.einsum(
+                "cm,cm->c", cols[i], cols[j])
+    Xty = np.stack([np.full(t0.size, y.sum()), h1 @ y, h2 @ y], axis=-1)
     yy = float(y @ y)
     best = np.full(t0.size, yy - y.sum() ** 2 / y.size)  # constant only
-    for cols in ((0, 1, 2), (0, 1), (0, 2)):
-        idx = np.array(cols)
+    for idx in (np.array([0, 1, 2]), np.array([0, 1]), np.array([0, 2])):
         G = XtX[:, idx[:, None], idx[None, :]]
         g = Xty[:, idx]
         G = G + 1e-12 * np.trace(G, axis1=1, axis2=2)[:, None, None] * np.eye(idx.size)
