@@ -15,7 +15,6 @@ from pathlib import Path
 
 import pandas as pd
 
-from trebuchet.model.figures import FIGURES
 from trebuchet.model.report_cli import CAPTIONS
 from trebuchet.model.scene import Scene
 
@@ -75,6 +74,8 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
              f"J, s); measured curves are ±{options.band_sd:g} sd bands, predicted curves "
              "lines. Quantities held by the sling (F_S, P_m, E_m) are compared from trigger "
              f"to release, the others as long as both frames go. {notes}").strip()
+    from trebuchet.model.figures import FIGURES  # matplotlib loads only to draw
+
     figures = {key: (lambda make=make: make(predicted, measured, scene))
                for key, make in FIGURES.items()}
     out = write_report(out_dir, figures, {"metrics": table, "events": events}, advisories,

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .scene import Flight
 
@@ -87,6 +86,8 @@ def _solve_drag(release: dict[str, float], g: float, k: float, t_max: float):
     ground.terminal = True  # type: ignore[attr-defined]
     ground.direction = -1.0  # type: ignore[attr-defined]
     y0 = [release["x"], release["y"], release["vx"], release["vy"]]
+    from scipy.integrate import solve_ivp  # only drag needs it (import costs ~0.5 s)
+
     return solve_ivp(_drag_rhs(k, g), (release["t"], release["t"] + t_max), y0, method="DOP853",
                      rtol=1e-10, atol=1e-9, dense_output=True, events=ground)
 
@@ -133,6 +134,8 @@ def projectile_in_flight(release: dict[str, float], t: np.ndarray, g: float, fli
         if t_end <= release["t"]:
             s = np.repeat(np.array(y0)[:, None], t.size, axis=1)
         else:
+            from scipy.integrate import solve_ivp
+
             sol = solve_ivp(_drag_rhs(k, g), (release["t"], t_end), y0, method="DOP853",
                             rtol=1e-10, atol=1e-9, dense_output=True)
             s = sol.sol(t)

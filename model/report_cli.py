@@ -13,7 +13,6 @@ from pathlib import Path
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.report import write_report
 
-from .figures import FIGURES
 from .figures_numbers import event_table, flight_table, peak_table
 from .scene import Scene
 from .simulate import simulate
@@ -63,6 +62,8 @@ def report_scene(scene: Scene, out_dir: str | Path, *, dt: float = 1e-3,
     diag = run.attrs.get("diagnostics") or {}
     tables = {"events": event_table(run), "peaks": peak_table(run, scene),
               "flight": flight_table(run)}
+    from .figures import FIGURES  # matplotlib loads only when a report is drawn
+
     figures = {name: (lambda make=make: make(run, None, scene)) for name, make in FIGURES.items()}
     intro = (f"Simulated shot of {scene.source}: {len(run)} rows every {dt * 1e3:g} ms, "
              f"solver {diag.get('method', '?')} at rtol {diag.get('rtol', float('nan')):g}, "

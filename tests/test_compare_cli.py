@@ -12,6 +12,7 @@ matplotlib.use("Agg")
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
+import trebuchet.model.figures as figures_module
 from tests.conftest import HORSDAL, ROOT  # noqa: E402
 from trebuchet import cli  # noqa: E402
 from trebuchet.errors import TrebuchetInputError  # noqa: E402
@@ -70,7 +71,7 @@ def test_a_failure_midway_leaves_no_report_and_keeps_an_old_one(run, tmp_path, m
         raise RuntimeError("figure broke")
 
     figures = dict(list(FIGURES.items())[:1]) | {"broken": broken}
-    monkeypatch.setattr(compare_cli, "FIGURES", figures)
+    monkeypatch.setattr(figures_module, "FIGURES", figures)
     fresh = tmp_path / "fresh"
     with pytest.raises(RuntimeError, match="figure broke"):
         compare_cli.compare_report(DEMO_LOG, HORSDAL, fresh, progress=None)

@@ -12,6 +12,7 @@ import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+import trebuchet.model.figures as figures_module
 from trebuchet.errors import TrebuchetInputError  # noqa: E402
 from trebuchet.ingest import report as report_mod  # noqa: E402
 from trebuchet.ingest.report import write_report  # noqa: E402
@@ -106,7 +107,7 @@ def test_report_with_a_failing_figure_leaves_nothing(tmp_path, monkeypatch, hors
     def broken(predicted, measured, scene):
         raise RuntimeError("figure failed")
 
-    monkeypatch.setattr(report_cli, "FIGURES", {"tension": FIGURES["tension"],
+    monkeypatch.setattr(figures_module, "FIGURES", {"tension": FIGURES["tension"],
                                                 "broken": broken})
     with pytest.raises(RuntimeError):
         report_cli.report_scene(horsdal, tmp_path / "report", dt=0.005)
