@@ -30,8 +30,7 @@ from .scene import Engine
 __all__ = [
     "trough_sling_angle",
     "trough_f_g",
-    "counterweight_psi_dd",
-    "sling_phi_dd",
+    "beam_and_counterweight",
     "trough_phi_d",
     "trough_phi_dd",
     "accelerations_phase1",
@@ -69,83 +68,76 @@ def trough_phi_dd(theta: Any, phi: Any, theta_d: Any, phi_d: Any, theta_dd: Any,
         e.L4 * lib.cos(phi))
 
 
-def counterweight_psi_dd(theta: Any, psi: Any, theta_d: Any, theta_dd: Any, e: Engine, g: float,
-                         lib: ModuleType = np) -> Any:
-    """ψ̈ of the hinged counterweight, a pendulum of length L3 hung from the moving hinge,
-    rad/s² (second row of the paper's eq. (A.1), divided by M L3²); θ̈ for a counterweight
-    fixed to the beam."""
-    if e.counterweight_offset is not None:
-        return theta_dd
-    s, c = lib.sin(theta - psi), lib.cos(theta - psi)
-    return (e.L2 * (c * theta_dd - s * theta_d * theta_d) - g * lib.cos(psi)) / e.L3
+def beam_and_counterweight(theta: Any, psi: Any, theta_d: Any, psi_d: Any, q_proj: Any,
+                           i_proj: Any, e: Engine, g: float,
+                           lib: ModuleType = np) -> tuple[Any, Any]:
+    """θ̈ and ψ̈ (rad/s²) given the projectile's share of the beam's equation.
 
-
-def sling_phi_dd(theta: Any, phi: Any, theta_d: Any, theta_dd: Any, e: Engine, g: float,
-                 lib: ModuleType = np) -> Any:
-    """φ̈ of the projectile in the sling, a pendulum of length L4 hung from the spigot, rad/s²."""
-    s, c = lib.sin(theta - phi), lib.cos(theta - phi)
-    return (e.L1 * (s * theta_d * theta_d - c * theta_dd) - g * lib.cos(phi)) / e.L4
-
-
-def _counterweight_share(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
-                         lib: ModuleType) -> tuple[Any, Any]:
-    """Generalised force (N m) and effective inertia (kg m²) of the counterweight on the beam:
-    for the hinged one once its own equation is eliminated; for one fixed to the beam at
-    ``ψ = θ + offset``, gravity's torque ``M g (L2 cos θ − L3 cos ψ)`` and ``M ρ²`` with
-    ``ρ² = L2² + L3² − 2 L2 L3 cos(offset)``."""
+    ``θ̈ = Σ Q / Σ I`` over the beam (gravity on its centre of mass, inertia I), the
+    counterweight and the projectile (``q_proj`` in N m, ``i_proj`` in kg m², zero once
+    released). The hinged counterweight's own equation (second row of the paper's eq. (A.1))
+    is eliminated: it adds ``Q = M L2 (L3 ψ̇² sin(θ−ψ) − cos(θ−ψ)(L2 θ̇² sin(θ−ψ) + g cos ψ)
+    + g cos θ)`` and ``I = M L2² sin²(θ−ψ)``, and then swings as a pendulum of length L3 hung
+    from the moving hinge, ``ψ̈ = (L2 (cos(θ−ψ) θ̈ − sin(θ−ψ) θ̇²) − g cos ψ)/L3``. A
+    counterweight fixed to the beam at ``ψ = θ + offset`` adds gravity's torque
+    ``M g (L2 cos θ − L3 cos ψ)`` and ``M ρ²``, ``ρ² = L2² + L3² − 2 L2 L3 cos(offset)``, and
+    turns with the beam (ψ̈ = θ̈).
+    """
+    cos_th = lib.cos(theta)
+    q = q_proj - e.m_b * e.L_CM * g * cos_th
+    i = i_proj + e.I
     if e.counterweight_offset is not None:
         rho2 = e.L2 * e.L2 + e.L3 * e.L3 - 2.0 * e.L2 * e.L3 * lib.cos(e.counterweight_offset)
-        return e.M * g * (e.L2 * lib.cos(theta) - e.L3 * lib.cos(psi)), e.M * rho2
+        theta_dd = (q + e.M * g * (e.L2 * cos_th - e.L3 * lib.cos(psi))) / (i + e.M * rho2)
+        return theta_dd, theta_dd
     s, c = lib.sin(theta - psi), lib.cos(theta - psi)
-    swing = e.L2 * theta_d * theta_d * s + g * lib.cos(psi)
-    q = e.M * e.L2 * (e.L3 * psi_d * psi_d * s - c * swing + g * lib.cos(theta))
-    return q, e.M * e.L2 * e.L2 * s * s
-
-
-def _beam_share(theta: Any, e: Engine, g: float, lib: ModuleType) -> tuple[Any, Any]:
-    """Generalised force (gravity on the beam's centre of mass, N m) and inertia of the beam."""
-    return -e.m_b * e.L_CM * g * lib.cos(theta), e.I
+    cos_ps = lib.cos(psi)
+    w2 = theta_d * theta_d
+    q = q + e.M * e.L2 * (e.L3 * psi_d * psi_d * s - c * (e.L2 * w2 * s + g * cos_ps)
+                          + g * cos_th)
+    theta_dd = q / (i + e.M * e.L2 * e.L2 * s * s)
+    return theta_dd, (e.L2 * (c * theta_dd - s * w2) - g * cos_ps) / e.L3
 
 
 def accelerations_phase1(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
                          H: float, lib: ModuleType = np) -> tuple[Any, Any, Any, Any, Any]:
     """Phase I (projectile dragged in the trough): returns φ, φ̇, θ̈, ψ̈, φ̈.
 
-    The paper's eq. (A.1) with the projectile's share ``I = m L1² f²`` and
-    ``Q = −m L1² f g θ̇²``.
+    The paper's eq. (A.1): the projectile's share is ``I = m L1² f²`` and
+    ``Q = −m L1² f g θ̇²``; φ follows θ on the trough constraint.
     """
     phi = trough_sling_angle(theta, e, H, lib)
     phi_d = trough_phi_d(theta, phi, theta_d, e, lib)
     f, gg = trough_f_g(theta, phi, e, lib)
-    q_cw, i_cw = _counterweight_share(theta, psi, theta_d, psi_d, e, g, lib)
-    q_b, i_b = _beam_share(theta, e, g, lib)
-    q_p = -e.m * e.L1 * e.L1 * f * gg * theta_d * theta_d
-    i_p = e.m * e.L1 * e.L1 * f * f
-    theta_dd = (q_cw + q_b + q_p) / (i_cw + i_b + i_p)
-    psi_dd = counterweight_psi_dd(theta, psi, theta_d, theta_dd, e, g, lib)
+    mL1L1 = e.m * e.L1 * e.L1
+    theta_dd, psi_dd = beam_and_counterweight(theta, psi, theta_d, psi_d,
+                                              -mL1L1 * f * gg * theta_d * theta_d, mL1L1 * f * f,
+                                              e, g, lib)
     phi_dd = trough_phi_dd(theta, phi, theta_d, phi_d, theta_dd, e, lib)
     return phi, phi_d, theta_dd, psi_dd, phi_dd
 
 
 def accelerations_phase2(theta: Any, psi: Any, phi: Any, theta_d: Any, psi_d: Any, phi_d: Any,
                          e: Engine, g: float, lib: ModuleType = np) -> tuple[Any, Any, Any]:
-    """Phase II (projectile in the sling): returns θ̈, ψ̈, φ̈ from the three Lagrange equations."""
+    """Phase II (projectile in the sling): returns θ̈, ψ̈, φ̈ from the three Lagrange equations.
+
+    The sling's equation eliminated, the projectile adds ``Q = −m L1 (L4 φ̇² sin(θ−φ) +
+    g cos θ + cos(θ−φ)(L1 θ̇² sin(θ−φ) − g cos φ))`` and ``I = m L1² sin²(θ−φ)``, and swings
+    as a pendulum of length L4 hung from the spigot,
+    ``φ̈ = (L1 (sin(θ−φ) θ̇² − cos(θ−φ) θ̈) − g cos φ)/L4``.
+    """
     s, c = lib.sin(theta - phi), lib.cos(theta - phi)
-    q_cw, i_cw = _counterweight_share(theta, psi, theta_d, psi_d, e, g, lib)
-    q_b, i_b = _beam_share(theta, e, g, lib)
+    cos_ph = lib.cos(phi)
+    w2 = theta_d * theta_d
     q_p = -e.m * e.L1 * (e.L4 * phi_d * phi_d * s + g * lib.cos(theta)
-                         + c * (e.L1 * theta_d * theta_d * s - g * lib.cos(phi)))
-    i_p = e.m * e.L1 * e.L1 * s * s
-    theta_dd = (q_cw + q_b + q_p) / (i_cw + i_b + i_p)
-    psi_dd = counterweight_psi_dd(theta, psi, theta_d, theta_dd, e, g, lib)
-    phi_dd = sling_phi_dd(theta, phi, theta_d, theta_dd, e, g, lib)
+                         + c * (e.L1 * w2 * s - g * cos_ph))
+    theta_dd, psi_dd = beam_and_counterweight(theta, psi, theta_d, psi_d, q_p,
+                                              e.m * e.L1 * e.L1 * s * s, e, g, lib)
+    phi_dd = (e.L1 * (s * w2 - c * theta_dd) - g * cos_ph) / e.L4
     return theta_dd, psi_dd, phi_dd
 
 
 def accelerations_phase3(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
                          lib: ModuleType = np) -> tuple[Any, Any]:
-    """Phase III (projectile released): returns θ̈, ψ̈ of beam and counterweight alone."""
-    q_cw, i_cw = _counterweight_share(theta, psi, theta_d, psi_d, e, g, lib)
-    q_b, i_b = _beam_share(theta, e, g, lib)
-    theta_dd = (q_cw + q_b) / (i_cw + i_b)
-    return theta_dd, counterweight_psi_dd(theta, psi, theta_d, theta_dd, e, g, lib)
+    """Phase III (projectile released, or a dry fire): θ̈, ψ̈ of beam and counterweight alone."""
+    return beam_and_counterweight(theta, psi, theta_d, psi_d, 0.0, 0.0, e, g, lib)
