@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 import warnings
 from dataclasses import replace
 
@@ -190,12 +189,13 @@ def test_wrapped_angle_is_unwrapped_with_warning():
     assert _errors(est, truth, "phi_d")[0] < 0.03
 
 
-def test_speed_1000fps_two_seconds():
-    log, _ = synthetic_log(1000, 0.5, seed=16)
-    smooth(log.iloc[:200])  # warm up
-    t0 = time.perf_counter()
-    smooth(log)
-    assert time.perf_counter() - t0 < 1.0  # ~0.25 s measured; loose for shared machines
+def test_two_seconds_at_1000fps():
+    """A long log runs through (its time is measured in bench/ingest_accuracy.py, not
+    asserted here)."""
+    log, truth = synthetic_log(1000, 0.5, seed=16)
+    est = smooth(log)
+    assert len(est) == len(log) >= 2000
+    assert _errors(est, truth, "theta_d")[0] < 0.05
 
 
 @pytest.mark.parametrize(
