@@ -30,6 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="trebuchet",
         description="Internal forces of the swinging-counterweight trebuchet (Horsdal).")
+    from trebuchet import __version__
+
+    parser.add_argument("--version", action="version", version=f"trebuchet {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in ROOMS:
         try:
