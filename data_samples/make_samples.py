@@ -284,14 +284,21 @@ def _note(rows: Sequence[int], what: str) -> str:
     return f"{len(rows)} {what}" if rows else f"no {what}"
 
 
+def filmed_shot(index: int, scene_name: str, fps: float, start: float | None = None
+                ) -> tuple[np.random.Generator, Scene, np.ndarray, np.ndarray, pd.DataFrame]:
+    """The random stream of sample ``index``, the scene, the frame numbers and times (s, video
+    time; see :func:`frame_range`) and the true shot at those times."""
+    rng = np.random.default_rng([SEED, index])
+    scene = load_scene(scene_name)
+    frames = frame_range(fps, shot_events(scene)["release"], start=start)
+    t = frames / fps
+    return rng, scene, frames, t, truth(scene, t)
+
+
 def generic_sample(name: str, scene_name: str, fps: float, sd: float, n_absent: int,
                    n_blank: int, index: int) -> Sample:
     """A generic log: 'fps' frames, Gaussian angle noise 'sd' (deg), absent rows, empty cells."""
-    rng = np.random.default_rng([SEED, index])
-    scene = load_scene(scene_name)
-    frames = frame_range(fps, shot_events(scene)["release"])
-    t = frames / fps
-    true = truth(scene, t)
+    rng, scene, _, t, true = filmed_shot(index, scene_name, fps)
     deg = noisy_angles(rng, true, sd)
     absent = pick(rng, np.arange(1, len(t) - 1), n_absent)
     keep = np.ones(len(t), dtype=bool)
@@ -319,11 +326,7 @@ def generic_sample(name: str, scene_name: str, fps: float, sd: float, n_absent: 
 def tracker_sample(index: int) -> Sample:
     """Tracker, tab, formatted numbers (t 0.0000, θ 0.0°, ω 0°/s), three protractors."""
     name, fps, sd = "horsdal_tracker.txt", 120.0, 0.5
-    rng = np.random.default_rng([SEED, index])
-    scene = load_scene(PAPER_SCENE)
-    frames = frame_range(fps, shot_events(scene)["release"])
-    t = frames / fps
-    true = truth(scene, t)
+    rng, scene, _, t, true = filmed_shot(index, PAPER_SCENE, fps)
     deg = noisy_angles(rng, true, sd)
     blanks = blank_cells(rng, deg, 4)
     rows = []
@@ -354,11 +357,7 @@ def tracker_sample(index: int) -> Sample:
 def tracker_eu_sample(index: int) -> Sample:
     """Tracker, ``;``, decimal comma, Java scientific numbers, CRLF, θ columns only."""
     name, fps, sd = "horsdal_tracker_multi_decimal_comma.txt", 120.0, 0.5
-    rng = np.random.default_rng([SEED, index])
-    scene = load_scene(PAPER_SCENE)
-    frames = frame_range(fps, shot_events(scene)["release"])
-    t = frames / fps
-    true = truth(scene, t)
+    rng, scene, _, t, true = filmed_shot(index, PAPER_SCENE, fps)
     deg = noisy_angles(rng, true, sd)
     blanks = blank_cells(rng, deg, 4)
     shown = wrap_deg(deg)
@@ -381,11 +380,7 @@ def tracker_eu_sample(index: int) -> Sample:
 def kinovea_sample(index: int) -> Sample:
     """Kinovea trajectories of the five points, m, 1 cm noise, whole-ms times, 240 fps."""
     name, fps, sd = "horsdal_kinovea.csv", 240.0, 0.01
-    rng = np.random.default_rng([SEED, index])
-    scene = load_scene(PAPER_SCENE)
-    frames = frame_range(fps, shot_events(scene)["release"])
-    t = frames / fps
-    true = truth(scene, t)
+    rng, scene, _, t, true = filmed_shot(index, PAPER_SCENE, fps)
     pts = engine_points(scene, true)
     noisy = {}
     for role in ROLES:
@@ -418,11 +413,7 @@ def kinovea_sample(index: int) -> Sample:
 def deeplabcut_sample(index: int) -> Sample:
     """DeepLabCut keypoints in px (y down), 120 fps from frame 0, some low likelihoods."""
     name, fps = "horsdal_dlc.csv", 120.0
-    rng = np.random.default_rng([SEED, index])
-    scene = load_scene(PAPER_SCENE)
-    frames = frame_range(fps, shot_events(scene)["release"], start=0.0)
-    t = frames / fps
-    true = truth(scene, t)
+    rng, scene, frames, t, true = filmed_shot(index, PAPER_SCENE, fps, start=0.0)
     pts = engine_points(scene, true)
     n = len(t)
     flying = ~np.isfinite(true["phi"].to_numpy())
