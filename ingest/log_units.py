@@ -38,27 +38,25 @@ def split_unit(header: str) -> tuple[str, str | None]:
     return m.group("name").strip(), m.group("unit")
 
 
-def time_factor(path: str | Path, header: str, unit: str | None, default: float) -> float:
-    """Factor from the time column's unit to seconds (``default`` when no unit is written)."""
+def _factor(path: str | Path, header: str, unit: str | None, default: float,
+            table: dict[str, float], what: str) -> float:
+    """Factor from a column's unit to SI by ``table`` (``default`` when no unit is written)."""
     if unit is None:
         return default
     key = unit.strip().lower()
-    if key not in TIME_UNITS:
+    if key not in table:
         raise TrebuchetInputError(
-            f"{path}, column '{header}': unknown time unit {unit!r} "
-            f"(known: {', '.join(sorted(set(TIME_UNITS)))})"
+            f"{path}, column '{header}': unknown {what} unit {unit!r} "
+            f"(known: {', '.join(sorted(set(table)))})"
         )
-    return TIME_UNITS[key]
+    return table[key]
+
+
+def time_factor(path: str | Path, header: str, unit: str | None, default: float) -> float:
+    """Factor from the time column's unit to seconds (``default`` when no unit is written)."""
+    return _factor(path, header, unit, default, TIME_UNITS, "time")
 
 
 def angle_factor(path: str | Path, header: str, unit: str | None, default: float) -> float:
     """Factor from an angle column's unit to radians (``default`` when no unit is written)."""
-    if unit is None:
-        return default
-    key = unit.strip().lower()
-    if key not in ANGLE_UNITS:
-        raise TrebuchetInputError(
-            f"{path}, column '{header}': unknown angle unit {unit!r} "
-            f"(known: {', '.join(sorted(ANGLE_UNITS))})"
-        )
-    return ANGLE_UNITS[key]
+    return _factor(path, header, unit, default, ANGLE_UNITS, "angle")
