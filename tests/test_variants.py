@@ -163,3 +163,10 @@ def test_variant_keys_are_validated(mutate, key):
     with pytest.raises(Exception) as info:
         scene_with(**mutate)
     assert key in str(info.value)
+
+
+def test_powers_balance(variant):
+    """Internal forces do no net work in every variant: P_m + P_M + P_beam = 0."""
+    _, _, run = variant
+    total = run.P_m + run.P_M + run.P_beam
+    assert np.max(np.abs(total)) < 1e-9 * np.max(np.abs(run.P_M))
