@@ -77,10 +77,9 @@ def test_forces_along_their_arms(variant):
         assert np.max(np.abs(across)) < 1e-9 * np.max(held.F_S_abs)
 
 
-def test_fixed_counterweight_keeps_its_angle_on_the_beam(variant):
-    name, scene, run = variant
-    if name != "fixed":
-        pytest.skip("fixed counterweight only")
+def test_fixed_counterweight_keeps_its_angle_on_the_beam():
+    scene = scene_with(**FIXED)
+    run = simulate(scene, dt=1e-3)
     offset = scene.engine.counterweight_offset
     assert np.allclose(run.psi - run.theta, offset, atol=1e-12)
     assert np.allclose(run.psi_d, run.theta_d, atol=1e-12)
