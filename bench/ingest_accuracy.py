@@ -5,7 +5,9 @@ frame rates 60–1000 fps, angle noise 0.1–2° (and the 0.3° of the issue's t
 seeds per cell, 2 % dropped frames, 0.3 s at rest before the trigger, the sling's track
 ending at the release. The truth is the simulation at the same frame times
 (:mod:`trebuchet.ingest.simulated_log`). Both force forms (projected, direct) run on the
-same smoothed angles. Per run and form, over the frames of the shot (after the trigger):
+same smoothed angles. Per run and form, over the frames of the shot (after the trigger;
+for |F_S| only up to the release, while the sling holds the projectile: after it load and
+truth are both exactly 0 and would count as covered by any band):
 
 - ``<Q>_rms``: RMS error of |F_R|, |F_H|, |F_S| and the torque, % of the true peak;
 - ``<Q>_peak``: error of the peak value, % of the true peak;
@@ -52,6 +54,9 @@ SMALL = {
     "release": {"velocity_angle_deg": 45.0},
     "environment": {"g": 9.81},
 }
+#: Loads scored only while the sling holds the projectile (phases 1–2): after the release
+#: |F_S| and its truth are both exactly 0, frames that would count as inside any band.
+HELD_ONLY = ("F_S_abs",)
 #: Targets of the issue on the paper's engine: (fps, noise °) -> max RMS and peak error, %.
 TARGETS = {(240, 0.3): 5.0, (120, 0.5): 8.0, (60, 1.0): 8.0}
 
@@ -62,14 +67,18 @@ def engines() -> dict[str, Scene]:
 
 
 def scores(res: pd.DataFrame, truth: pd.DataFrame) -> dict[str, float]:
-    """Errors (% of the true peak) and ±2 sd coverage (%) over the shot's frames."""
+    """Errors (% of the true peak) and ±2 sd coverage (%) over the shot's frames (for
+    ``HELD_ONLY`` loads over the frames before the release)."""
     out: dict[str, float] = {}
-    moving = truth["phase"].to_numpy() > 0
+    phase = truth["phase"].to_numpy()
+    moving = phase > 0
+    held = moving & (phase <= 2)
     for col, short in QUANTITIES.items():
         est, true = res[col].to_numpy(), truth[col].to_numpy()
         sd = res[col + "_sd"].to_numpy()
-        ok = moving & np.isfinite(est) & np.isfinite(true)
-        peak = np.max(np.abs(true[moving]))
+        frames = held if col in HELD_ONLY else moving
+        ok = frames & np.isfinite(est) & np.isfinite(true)
+        peak = np.max(np.abs(true[frames]))
         err = est[ok] - true[ok]
         out[f"{short}_rms"] = 100 * float(np.sqrt(np.mean(err**2)) / peak)
         out[f"{short}_peak"] = 100 * float(abs(np.max(np.abs(est[ok])) - peak) / peak)
@@ -148,7 +157,10 @@ def run(out_dir: str | Path | None = None, workers: int = 2) -> pd.DataFrame:
              f"{time.perf_counter() - t0:.0f} s with {workers} worker(s)",
              f"2 s log at 1000 fps, three angles, reconstruct() end to end: {speed:.2f} s",
              "errors and peaks in % of the true peak; cover: % of shot frames with the "
-             "truth inside ±2 sd; seconds: smoothing + tuning + loads of one form"]
+             "truth inside ±2 sd; seconds: smoothing + tuning + loads of one form",
+             "|F_S| (FS_*) is scored only while the sling holds the projectile (phases 1–2); "
+             "until this note it also counted the frames after the release, where load and "
+             "truth are both 0 (23–29 % of the shot's frames, all counted inside the band)"]
     for (fps, noise), limit in TARGETS.items():
         sel = table[(table.engine == "paper") & (table.fps == fps)
                     & (table.noise_deg == noise) & (table.form == "projected")]

@@ -188,6 +188,7 @@ def piecewise_noise(
     x0: np.ndarray,
     P0: np.ndarray,
     settings: NoiseSearch = NoiseSearch(),
+    max_decades: np.ndarray | None = None,
 ) -> PiecewiseNoise:
     """``λ = q/r²`` chosen piece by piece: the process noise may differ between stretches
     of the log (the trough, the swing, the flight after release), ``r²`` stays fixed.
@@ -200,7 +201,8 @@ def piecewise_noise(
     batched pass per piece, so the whole search costs one pass over the log. The state
     carried into the next piece is that of the best grid point; the value used is the
     parabola through the three best. ``r2`` (A,) measurement variance; ``kick``, ``x0``,
-    ``P0`` as for :func:`maximum_likelihood_noise`.
+    ``P0`` as for :func:`maximum_likelihood_noise`. ``max_decades`` (P,): per piece, the
+    highest ``λ`` allowed, in decades above ``lam_start`` (``inf``: the grid's end).
     """
     A = z.shape[0]
     k = steps.k
@@ -224,6 +226,8 @@ def piecewise_noise(
         log_s, nu2_s, _ = filt.loglik_sums(lik_weight[rep, lo:hi])
         ll = -0.5 * (log_s + nu2_s).reshape(A, m)
         ll = ll - 0.5 * (offsets / settings.piece_prior_decades) ** 2
+        if max_decades is not None:
+            ll = np.where(offsets > max_decades[p] + 1e-9, -np.inf, ll)
         ll = np.where(np.isfinite(ll), ll, -np.inf)
         best = np.argmax(ll, axis=1)
         for a in range(A):

@@ -62,9 +62,9 @@ DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
 EVENT_KEYS = ("trigger", "lift_off", "release")
 #: preset -> (smoother settings, uncertainty propagation order); see ReconstructOptions.
 PRESETS: dict[str, tuple[SmoothSettings, int]] = {
-    "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0)), 1),
+    "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0), shot_pieces=0), 1),
     "default": (SmoothSettings(), 2),
-    "precise": (SmoothSettings(noise=NoiseSearch(log10_step=0.25), shot_pieces=3), 2),
+    "precise": (SmoothSettings(noise=NoiseSearch(log10_step=0.25)), 2),
 }
 
 
@@ -96,13 +96,14 @@ class ReconstructOptions:
 
     ``preset`` trades time for accuracy (``bench/ingest_trade.py`` measures it):
 
-    - ``"fast"``: coarse noise search (grid step 1 decade of ``q/r²``), first-order
-      uncertainty propagation (forward differences: 9 load evaluations instead of 18,
-      no second-order variance or bias term);
-    - ``"default"``: grid step ½ decade, second-order propagation (central differences,
-      variance and bias);
-    - ``"precise"``: grid step ¼ decade, the process noise chosen per piece of the shot
-      (``SmoothSettings.shot_pieces = 3``), second-order propagation.
+    - ``"fast"``: coarse noise search (grid step 1 decade of ``q/r²``), one process noise
+      for the whole log (``SmoothSettings.shot_pieces = 0``), first-order uncertainty
+      propagation (forward differences: 9 load evaluations instead of 18, no
+      second-order variance or bias term);
+    - ``"default"``: grid step ½ decade, the process noise chosen per piece of the shot
+      (``SmoothSettings.shot_pieces = 3``, the piece before the release bounded by the
+      whole log's), second-order propagation (central differences, variance and bias);
+    - ``"precise"``: as ``"default"`` with grid step ¼ decade.
 
     An explicit ``smooth`` replaces the preset's smoother settings.
     """

@@ -76,16 +76,20 @@ class SmoothSettings:
     this many stretches of equal duration between trigger and release, each of at least
     ``piece_min_frames`` frames, and on the flight after release (the swing's jerk is
     far larger than the trough's: one ``q`` made the bands about 4× too wide in the
-    trough and too narrow in the swing); 0 (default) keeps one ``q`` for the whole log.
-    Measured on ``bench/ingest_accuracy.py`` (projected form, 40 cells × 4 loads), 3 pieces
-    against one ``q``: 140 instead of 129 cells with 85–99 % of the truth inside ±2 sd
-    (too wide 16 instead of 26, too narrow 4 instead of 5), mean |F_R| RMS error 1.86
-    instead of 2.16 % of peak, about 55 ms more on 2 s at 1000 fps; 2 or 4 pieces did
-    worse (139, 132 cells). They stay opt-in (``ReconstructOptions(preset="precise")``)
-    because the high ``q`` of the piece before the release widens the bands at the peaks:
-    |F_S| on the paper's engine at 240 fps and 0.3° (seed 11) holds the truth on 99.7 %
-    of the frames (tests ask ≤ 99.5 %), and the demo log against a 30 % heavier
-    counterweight differs at the |F_R⊥| peak by 3.5 sd only (tests ask > 5).
+    trough and too narrow in the swing); 0 keeps one ``q`` for the whole log.
+    ``release_piece_max_decades``: the stretch that ends at the release may not take a
+    ``q`` more than this many decades above the single-``q`` maximum of the whole log
+    (``inf``: no bound). Its own maximum is about 3× that ``q`` (the fastest third of the
+    swing; so too with the true release given: it is not the release's jump, which the
+    kick there takes), and the bands it gave at the peaks held the truth on more than
+    99 % of the frames in 11 of 40 bench cells for |F_S|.
+    Measured on ``bench/ingest_accuracy.py`` (projected form, 40 cells × 4 loads, |F_S|
+    scored before the release only; inside / too narrow / too wide of 85–99 % coverage):
+    one ``q`` 131 / 7 / 22, mean |F_R| RMS error 2.16 % of peak; 3 pieces without the
+    bound 139 / 5 / 16, 1.86 %; 3 pieces with the bound at 0 decades (default) 140 / 13 /
+    7, 1.97 % (bound 0.5 decades: 138 / 5 / 17). The bound trades too-wide cells for
+    too-narrow ones at 2° noise and 120 fps. The pieces cost about 60 ms on 2 s at
+    1000 fps.
     """
 
     noise: NoiseSearch = field(default_factory=NoiseSearch)
@@ -95,8 +99,9 @@ class SmoothSettings:
     jerk_kick_time: float = 0.05
     min_frames: int = 10
     retune_after_release: bool = True
-    shot_pieces: int = 0
+    shot_pieces: int = 3
     piece_min_frames: int = 20
+    release_piece_max_decades: float = 0.0
 
 
 # ----------------------------------------------------------------------------- input
@@ -451,10 +456,13 @@ def smooth(
                               settings.piece_min_frames)
         if not pieces or settings.shot_pieces < 1 or not free or bounds.size <= 2:
             return lam_use, lam_ml, np.array([0, n])
+        cap = np.full(bounds.size - 1, np.inf)
+        if rel_index is not None:
+            cap[bounds[1:] == int(rel_index)] = settings.release_piece_max_decades
         found = piecewise_noise(
             Z[free], valid[free], weight[free], steps, bounds,
             np.array([est[a].lam_ml for a in free]), np.array([est[a].r2 for a in free]),
-            kick[free], x0[free], P0[free], settings.noise,
+            kick[free], x0[free], P0[free], settings.noise, cap,
         )
         piece = np.repeat(np.arange(bounds.size - 1), np.diff(bounds))
         lam_use[free] = found.lam[:, piece]

@@ -235,3 +235,31 @@ def test_no_runtime_warnings():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         smooth(log, model="cj")
+
+
+def test_piece_before_the_release_is_bounded_by_the_whole_log():
+    """The last third of the swing alone takes about 3× the whole log's q (measured on the
+    paper's engine at 240 fps, 0.3°); by default it is bounded by it, the others are free."""
+    from pathlib import Path
+
+    from trebuchet.ingest.simulated_log import simulated_log
+    from trebuchet.ingest.smooth import SmoothSettings
+    from trebuchet.model.scene import Scene
+
+    scene = Scene.from_toml(Path(__file__).resolve().parents[1] / "data_samples"
+                            / "horsdal_large.toml")
+    log, truth = simulated_log(scene, 240, 0.3, seed=11, drop_fraction=0.02, t0=5.0)
+    release = truth.attrs["events"]["release"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        bounded = smooth(log)
+        free = smooth(log, settings=SmoothSettings(release_piece_max_decades=np.inf))
+    for name in ANGLES:
+        noise = bounded.attrs["noise"][name]
+        pieces = noise["pieces"]
+        assert len(pieces) == 4  # three in the shot, the flight
+        last = [p for p in pieces if p["t_start"] < release <= p["t_end"] + 1 / 240]
+        assert len(last) == 1 and last[0]["q"] <= noise["q"] * (1 + 1e-9)
+        assert pieces[0]["q"] < noise["q"]  # the trough: far below
+        unbounded = free.attrs["noise"][name]
+        assert max(p["q"] for p in unbounded["pieces"]) > 2 * unbounded["q"]
