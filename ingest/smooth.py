@@ -99,7 +99,7 @@ class SmoothSettings:
     jerk_kick_time: float = 0.05
     min_frames: int = 10
     retune_after_release: bool = True
-    shot_pieces: int = 3
+    shot_pieces: int = 0
     piece_min_frames: int = 20
     release_piece_max_decades: float = 0.0
 
