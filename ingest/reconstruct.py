@@ -42,7 +42,7 @@ from scipy.special import ndtr
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.forces import loads
-from trebuchet.model.scene import Scene
+from trebuchet.model.scene import Scene, as_scene
 
 from .advisory import resolution_advisories
 from .lift_off import lift_off_sd, lift_off_time
@@ -387,15 +387,6 @@ def _log_frame(path_or_log, fps, columns, points, min_likelihood) -> pd.DataFram
                               f"{type(path_or_log).__name__}")
 
 
-def _scene(scene: Scene | str | Path) -> Scene:
-    if isinstance(scene, Scene):
-        return scene
-    if isinstance(scene, str | Path):
-        return Scene.from_toml(scene)
-    raise TrebuchetInputError(f"reconstruct: expected a Scene or a scene file, got "
-                              f"{type(scene).__name__}")
-
-
 def _given_events(events: Mapping[str, float | None] | None, source: str
                   ) -> dict[str, float | None]:
     if events is None:
@@ -470,7 +461,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     changes = {k: v for k, v in (("form", form), ("trough", trough)) if v is not None}
     if changes:
         options = dataclasses.replace(options, **changes)
-    scene = _scene(scene)
+    scene = as_scene(scene, "reconstruct")
     log = _log_frame(path_or_log, fps, columns, points, min_likelihood)
     source = str(log.attrs.get("source", "log"))
     given = _given_events(events, source)
