@@ -38,7 +38,7 @@ from trebuchet.ingest.reconstruct import (
     reconstruct,
     sling_track_end,
 )
-from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.simulated_log import SMALL_ENGINE, simulated_log
 from trebuchet.ingest.smooth import smooth
 from trebuchet.model.scene import Scene
 
@@ -47,13 +47,6 @@ FRAME_RATES = (60, 120, 240, 1000)
 NOISE_DEG = (0.1, 0.3, 0.5, 1.0, 2.0)
 SEEDS = (0, 1)
 QUANTITIES = {"F_R_abs": "FR", "F_H_abs": "FH", "F_S_abs": "FS", "torque": "torque"}
-SMALL = {
-    "engine": {"L1": 2.0, "L2": 0.5, "L_CM": 0.6, "L3": 0.5, "L4": 1.8, "m_b": 15.0,
-               "M": 100.0, "m": 1.0},
-    "start": {"theta_deg": -45.0, "psi_deg": -90.0, "phi_deg": -180.0},
-    "release": {"velocity_angle_deg": 45.0},
-    "environment": {"g": 9.81},
-}
 #: Loads scored only while the sling holds the projectile (phases 1–2): after the release
 #: |F_S| and its truth are both exactly 0, frames that would count as inside any band.
 HELD_ONLY = ("F_S_abs",)
@@ -63,7 +56,7 @@ TARGETS = {(240, 0.3): 5.0, (120, 0.5): 8.0, (60, 1.0): 8.0}
 
 def engines() -> dict[str, Scene]:
     return {"paper": Scene.from_toml(ROOT / "data_samples" / "horsdal_large.toml"),
-            "small": Scene.from_dict(SMALL, source="small")}
+            "small": Scene.from_dict(SMALL_ENGINE, source="small")}
 
 
 def scores(res: pd.DataFrame, truth: pd.DataFrame) -> dict[str, float]:

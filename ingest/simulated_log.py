@@ -16,7 +16,17 @@ from trebuchet.model.forces import loads
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
 
-__all__ = ["simulated_log", "shot_truth"]
+__all__ = ["simulated_log", "shot_truth", "SMALL_ENGINE"]
+
+#: The small engine of the ingest bench and tests (a scene file's dict: metres, kg, degrees):
+#: fast enough that 60 fps cannot follow its swing.
+SMALL_ENGINE = {
+    "engine": {"L1": 2.0, "L2": 0.5, "L_CM": 0.6, "L3": 0.5, "L4": 1.8, "m_b": 15.0,
+               "M": 100.0, "m": 1.0},
+    "start": {"theta_deg": -45.0, "psi_deg": -90.0, "phi_deg": -180.0},
+    "release": {"velocity_angle_deg": 45.0},
+    "environment": {"g": 9.81},
+}
 
 ANGLES = ("theta", "psi", "phi")
 DERIVATIVES = tuple(a + s for a in ANGLES for s in ("_d", "_dd"))

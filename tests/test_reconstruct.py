@@ -10,20 +10,13 @@ import pytest
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.ingest.reconstruct import ReconstructOptions, loads_from_smoothed, reconstruct
-from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.simulated_log import SMALL_ENGINE, simulated_log
 from trebuchet.ingest.smooth import smooth
 from trebuchet.ingest.uncertainty import propagate
 from trebuchet.model.forces import LOAD_COLUMNS
 from trebuchet.model.scene import Scene
 
 FPS, NOISE = 240, 0.3
-SMALL = {
-    "engine": {"L1": 2.0, "L2": 0.5, "L_CM": 0.6, "L3": 0.5, "L4": 1.8, "m_b": 15.0,
-               "M": 100.0, "m": 1.0},
-    "start": {"theta_deg": -45.0, "psi_deg": -90.0, "phi_deg": -180.0},
-    "release": {"velocity_angle_deg": 45.0},
-    "environment": {"g": 9.81},
-}
 
 
 def _quiet(fn, *args, **kw):
@@ -148,7 +141,7 @@ def test_propagation_is_exact_for_a_square():
 
 
 def test_small_engine_at_low_frame_rate_gets_an_advisory():
-    scene = Scene.from_dict(SMALL, source="small")
+    scene = Scene.from_dict(SMALL_ENGINE, source="small")
     log, _ = simulated_log(scene, 60, 1.0, seed=2)
     with pytest.warns(ModelValidityWarning, match="exceeds 10% of its peak"):
         r = reconstruct(log, scene)
