@@ -102,6 +102,7 @@ def maximum_likelihood_noise(
     r2_given: np.ndarray,
     q_given: np.ndarray,
     settings: NoiseSearch = NoiseSearch(),
+    shape: np.ndarray | None = None,
 ) -> list[NoiseEstimate]:
     """Maximum-likelihood ``λ = q/r²`` and ``r²`` for each of ``A`` angles.
 
@@ -110,18 +111,22 @@ def maximum_likelihood_noise(
     one); ``kick`` (A,) event kick variances; ``x0``, ``P0`` (A, k), (A, k, k) priors;
     ``r2_given``/``q_given`` (A,) NaN where free (``q`` in smoother units). With both free
     ``r²`` is profiled out; with ``r`` given ``λ`` is searched with ``r`` fixed; with ``q``
-    given the grid runs over ``r² = q/λ``.
+    given the grid runs over ``r² = q/λ``. ``shape`` (A, n): the process noise of each
+    step relative to ``λ`` (default 1 everywhere; :func:`local_noise_estimate`), so that
+    ``λ`` is then the scale of that profile.
     """
     A = z.shape[0]
     m = grid.size
     k = steps.k
     rep = np.repeat(np.arange(A), m)
-    lam = np.tile(grid, A)
+    lam = np.tile(grid, A) * r2_ref[rep]
+    if shape is not None:
+        lam = lam[:, None] * np.asarray(shape, float)[rep]
     filt = batch_kalman_filter(
         z[rep],
         valid[rep],
         steps,
-        lam * r2_ref[rep],
+        lam,
         kick[rep],
         r2_ref[rep],
         x0[rep],
@@ -240,3 +245,46 @@ def piecewise_noise(
         P = np.repeat(filt.P_end[pick], m, axis=0)
     lam_use = lam_ml * settings.piece_cutoff_factor ** (2 * k)
     return PiecewiseNoise(lam_ml, lam_use, ll_sum, edge)
+
+
+def windowed_noise(est: np.ndarray, weight: np.ndarray, half_width: np.ndarray,
+                   floor: np.ndarray) -> np.ndarray:
+    """Local process noise (B, n): the per-step estimates ``est`` (B, n) averaged with
+    weights ``weight`` (n,) over a Gaussian window of sd ``half_width`` (B,) steps, and
+    not below ``floor`` (B,). Where the window holds no weight, the floor."""
+    B, n = est.shape
+    out = np.empty_like(est)
+    for b in range(B):
+        h = max(float(half_width[b]), 1.0)
+        span = min(int(np.ceil(4 * h)), (n - 1) // 2)
+        kern = np.exp(-0.5 * (np.arange(-span, span + 1) / h) ** 2)
+        num = np.convolve(est[b] * weight, kern, mode="same")
+        den = np.convolve(weight, kern, mode="same")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            local = np.where(den > 1e-9, num / den, floor[b])
+        out[b] = np.maximum(local, floor[b])
+    return out
+
+
+def jerk_noise_shape(acc: np.ndarray, ts: np.ndarray, weight: np.ndarray,
+                     half_width: np.ndarray, floor: float) -> np.ndarray:
+    """Relative process noise per angle and step (A, n), mean 1 over the weighted steps.
+
+    The white-jerk model's density ``q`` is the variance rate of the jerk; where the motion
+    is slow (the trough) its jerk is near zero, in the swing it is large. The local
+    ``q`` is taken proportional to the squared jerk ``(Δa/Δt)²`` of a first smoothed
+    acceleration ``acc`` (A, n) (smoother units; ``ts`` (n,) frame times), averaged over a
+    Gaussian window of sd ``half_width`` (A,) steps (:func:`windowed_noise`) over the steps
+    with ``weight`` (n,) > 0 (steps with process noise and no event kick), and not below
+    ``floor`` times its mean. The scale is left to maximum likelihood
+    (:func:`maximum_likelihood_noise` with ``shape``).
+    """
+    A, n = acc.shape
+    dt = np.diff(ts)
+    jerk2 = np.zeros((A, n))
+    jerk2[:, 1:] = (np.diff(acc, axis=1) / np.maximum(dt, 1e-12)) ** 2
+    local = windowed_noise(jerk2, weight, half_width, np.zeros(A))
+    w = weight + 1e-300
+    level = np.array([np.average(local[a], weights=w) for a in range(A)])
+    level = np.where(level > 0, level, 1.0)
+    return np.maximum(local / level[:, None], floor)
