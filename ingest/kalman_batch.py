@@ -113,6 +113,15 @@ class FilterResult:
     x_end: np.ndarray | None = None
     P_end: np.ndarray | None = None
 
+    def series(self, index: np.ndarray) -> FilterResult:
+        """The result for the series ``index`` only (e.g. one grid point per angle)."""
+        def pick(a: np.ndarray | None, axis: int) -> np.ndarray | None:
+            return None if a is None else np.take(a, index, axis=axis)
+
+        return FilterResult(pick(self.S, 1), pick(self.nu, 1), pick(self.xp, 1),
+                            pick(self.Pp, 1), pick(self.gain, 1), pick(self.x_end, 0),
+                            pick(self.P_end, 0))
+
     def loglik_sums(self, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``Σ w log S``, ``Σ w ν²/S`` and ``Σ w`` per series; ``weight`` (B, n), 0 at gaps."""
         w = np.asarray(weight, float).T
@@ -173,12 +182,15 @@ def batch_kalman_filter(
     KrT = _kron_transposed(steps.F)
     Q0 = steps.Q0.reshape(n, kk)
     G = steps.G.reshape(n, kk)
-    has_q = np.any(Q0 != 0.0, axis=1) & (np.any(lam_c != 0.0, axis=0) if per_step
-                                         else np.any(lam_c != 0.0))
-    has_kick = np.any(G != 0.0, axis=1) & np.any(kick_c != 0.0)
-    is_identity = np.all(steps.F == np.eye(k), axis=(1, 2))
-    any_valid = valid.any(axis=0)
-    all_valid = valid.all(axis=0)
+    # process noise of every step and series at once: lam Q0 + kick G, (n, B, kk)
+    lam_steps = lam.T if per_step else np.broadcast_to(lam_c.T, (n, B))
+    noise = lam_steps[:, :, None] * Q0[:, None, :] + kick_c.T[:, :, None] * G[:, None, :]
+    has_noise = np.any(noise != 0.0, axis=(1, 2)).tolist()
+    moves = (~np.all(steps.F == np.eye(k), axis=(1, 2))).tolist()
+    any_valid = valid.any(axis=0).tolist()
+    all_valid = valid.all(axis=0).tolist()
+    zz_t = np.ascontiguousarray(zz.T)
+    valid_t = np.ascontiguousarray(valid.T).astype(float)
 
     x = np.array(x0, dtype=float)
     P = np.array(P0, dtype=float).reshape(B, kk)
@@ -187,37 +199,31 @@ def batch_kalman_filter(
     if store:
         xps = np.empty((n, B, k))
         Pps = np.empty((n, B, kk))
-        gains = np.zeros((n, B, k))
     for i in range(n):
-        if not is_identity[i]:
+        if moves[i]:
             x = x @ FT[i]
             P = P @ KrT[i]
-        if has_q[i]:
-            P = P + (lam_c[:, i, None] if per_step else lam_c) * Q0[i]
-        if has_kick[i]:
-            P = P + kick_c * G[i]
-        PH = P[:, :k]
-        S = PH[:, 0] + r2
+        if has_noise[i]:
+            P = P + noise[i]
+        S = P[:, 0] + r2
         S_hist[i] = S
         if store:
             xps[i] = x
             Pps[i] = P
         if any_valid[i]:
-            nu = zz[:, i] - x[:, 0]
+            nu = zz_t[i] - x[:, 0]
             if all_valid[i]:
-                K = PH / S[:, None]
+                K = P[:, :k] / S[:, None]
             else:
-                w = valid[:, i]
-                nu = nu * w
-                K = PH * (w / S)[:, None]
+                nu = nu * valid_t[i]
+                K = P[:, :k] * (valid_t[i] / S)[:, None]
             x = x + K * nu[:, None]
-            P = P - (K[:, :, None] * PH[:, None, :]).reshape(B, kk)
+            P = P - (K[:, :, None] * P[:, None, :k]).reshape(B, kk)
             nu_hist[i] = nu
-            if store:
-                gains[i] = K
     end = {"x_end": x, "P_end": P.reshape(B, k, k)}
     if not store:
         return FilterResult(S_hist, nu_hist, **end)
+    gains = Pps[:, :, :k] * (valid_t / S_hist)[:, :, None]  # zero at gaps
     return FilterResult(S_hist, nu_hist, xps, Pps.reshape(n, B, k, k), gains, **end)
 
 
@@ -252,33 +258,27 @@ def backward_smoother(steps: StepModel, filt: FilterResult, valid: np.ndarray) -
     n, B, k = filt.xp.shape
     kk = k * k
     valid = np.asarray(valid, dtype=bool)
-    KrT = _kron_transposed(steps.F)
-    r = np.zeros((B, k))
-    N = np.zeros((B, k, k))
+    # L_i = F_{i+1} (I - K_i e1ᵀ) = F_{i+1} - (F_{i+1} K_i) e1ᵀ for all steps at once, and
+    # LL_i = L_i ⊗ L_i: vec(L_iᵀ N L_i) = vec(N) @ LL_i (row-major vec)
+    F_next = steps.F[1:]
+    L = np.repeat(F_next[:, None], B, axis=1)
+    L[..., 0] -= np.einsum("nij,nbj->nbi", F_next, filt.gain[:-1])
+    LL = np.einsum("nbpi,nbqj->nbpqij", L, L).reshape(n - 1, B, kk, kk)
+    r = np.zeros((B, 1, k))
+    N = np.zeros((B, 1, kk))
     rs = np.empty((n, B, k))
-    Ns = np.empty((n, B, k, k))
+    Ns = np.empty((n, B, kk))
     inv_S = np.where(valid.T, 1.0 / filt.S, 0.0)
     nu_S = filt.nu * inv_S
     for i in range(n - 1, -1, -1):
         if i < n - 1:
-            # L = F - (F K) e1ᵀ:  Lᵀ r = Fᵀr - e1 Kᵀ(Fᵀ r);  with M = Fᵀ N F:
-            # Lᵀ N L = M - (M K) e1ᵀ - e1 (M K)ᵀ + (Kᵀ M K) e1 e1ᵀ
-            Fn = steps.F[i + 1]
-            K = filt.gain[i]
-            u = r @ Fn
-            u[:, 0] -= np.einsum("bi,bi->b", K, u)
-            r = u
-            M = (N.reshape(B, kk) @ KrT[i + 1].T).reshape(B, k, k)
-            MK = np.einsum("bij,bj->bi", M, K)
-            c = np.einsum("bi,bi->b", K, MK)
-            M[:, :, 0] -= MK
-            M[:, 0, :] -= MK
-            M[:, 0, 0] += c
-            N = M
-        r[:, 0] += nu_S[i]
+            r = r @ L[i]
+            N = N @ LL[i]
+        r[:, 0, 0] += nu_S[i]
         N[:, 0, 0] += inv_S[i]
-        rs[i] = r
-        Ns[i] = N
+        rs[i] = r[:, 0]
+        Ns[i] = N[:, 0]
+    Ns = Ns.reshape(n, B, k, k)
     Pp = filt.Pp
     xs = filt.xp + np.einsum("nbij,nbj->nbi", Pp, rs)
     Ps = Pp - Pp @ Ns @ Pp

@@ -247,8 +247,10 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     rows = np.arange(max(i - 1, 0), min(i + 1, t.size))
     sub = state.iloc[rows].reset_index(drop=True)
     sub_cov = {a: c[rows] for a, c in cov.items()}
-    prop = propagate(lambda s: _evaluate(s, trial[rows], scene, options.form, options.trough),
-                     sub, sub_cov, ["F_N"], order=propagation_order(options))
+    # the trial phases have no phase 3, so the rows are independent: one stacked call
+    prop = propagate(lambda s: _evaluate(s, np.resize(trial[rows], len(s)), scene,
+                                         options.form, options.trough),
+                     sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True)
     return when, lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
 
 

@@ -49,49 +49,84 @@ def _numeric(frame: pd.DataFrame, names: list[str]) -> np.ndarray:
     return frame[names].to_numpy(dtype=float)
 
 
+def _shifts(state: pd.DataFrame, h: dict[str, np.ndarray], order: int
+            ) -> list[tuple[str, int, np.ndarray]]:
+    """(angle, state index, shifted column) of every evaluation after the unshifted one:
+    ``+h`` (and ``−h`` for ``order`` 2) per angle and suffix with any positive ``h``."""
+    out = []
+    for angle, hh in h.items():
+        for i, suffix in enumerate(STATE_SUFFIXES):
+            if not np.any(hh[:, i] > 0):
+                continue
+            x = state[angle + suffix].to_numpy(dtype=float)
+            out.append((angle, i, x + hh[:, i]))
+            if order == 2:
+                out.append((angle, i, x - hh[:, i]))
+    return out
+
+
 def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFrame,
               cov: dict[str, np.ndarray], names: list[str] | None = None,
-              order: int = 2) -> Propagation:
+              order: int = 2, stacked: bool = False) -> Propagation:
     """Propagate the per-angle covariance ``cov`` ({angle: (n, 3, 3)}, SI; NaN = unknown)
     through ``evaluate`` (a vectorised function of a frame with ``<angle><suffix>``
     columns, returning loads) at ``state``. ``names``: output columns to propagate
     (default: every float column ``evaluate`` returns that ``state`` does not hold).
     ``order``: 2 (central differences, linear + second-order variance + bias, 18 calls)
-    or 1 (forward differences, linear variance only, 9 calls: about half the time)."""
+    or 1 (forward differences, linear variance only, 9 calls: about half the time).
+    ``stacked``: one call of ``evaluate`` on the unshifted and all shifted states one
+    below the other instead of one call each: only for an ``evaluate`` whose rows do not
+    depend on each other (it gets a frame that many times longer); far faster on a few
+    rows, where each call's fixed cost dominates."""
     if order not in (1, 2):
         raise ValueError(f"propagate: order must be 1 or 2, not {order!r}")
-    base = evaluate(state)
-    if names is None:
-        names = [c for c in base.columns
-                 if c not in state.columns and base[c].dtype.kind == "f"]
-    L0 = _numeric(base, names)
+    covs = {a: np.asarray(C, dtype=float) for a, C in cov.items()}
+    h = {a: np.sqrt(np.clip(np.nan_to_num(np.diagonal(C, axis1=1, axis2=2)), 0.0, None))
+         for a, C in covs.items()}
+    shifts = _shifts(state, h, order)
     columns = {c: state[c].to_numpy() for c in state.columns}
-
-    def shifted(col: str, x: np.ndarray) -> pd.DataFrame:
-        return pd.DataFrame(columns | {col: x}, index=state.index, copy=False)
-
-    n, m = L0.shape
+    n = len(state)
+    if stacked:
+        big = {c: np.concatenate([v] + [x if c == a + STATE_SUFFIXES[i] else v
+                                        for a, i, x in shifts])
+               for c, v in columns.items()}
+        result = evaluate(pd.DataFrame(big))
+        if names is None:
+            names = _load_names(result, state)
+        values = _numeric(result, names)
+        outputs = [values[b * n:(b + 1) * n] for b in range(len(shifts) + 1)]
+    else:
+        base = evaluate(state)
+        if names is None:
+            names = _load_names(base, state)
+        outputs = [_numeric(base, names)]
+        for a, i, x in shifts:
+            frame = pd.DataFrame(columns | {a + STATE_SUFFIXES[i]: x}, index=state.index,
+                                 copy=False)
+            outputs.append(_numeric(evaluate(frame), names))
+    L0 = outputs[0]
+    m = L0.shape[1]
     lin = np.zeros((5, n, m))
     second = np.zeros((n, m))
     bias = np.zeros((n, m))
-    for angle, C in cov.items():
-        C = np.asarray(C, dtype=float)
-        h = np.sqrt(np.clip(np.nan_to_num(np.diagonal(C, axis1=1, axis2=2)), 0.0, None))
+    step = 2 if order == 2 else 1
+    at = {(a, i): 1 + step * j for j, (a, i) in enumerate(dict.fromkeys(
+        (a, i) for a, i, _ in shifts))}
+    for angle, C in covs.items():
+        hh = h[angle]
         with np.errstate(invalid="ignore", divide="ignore"):
-            R = C / (h[:, :, None] * h[:, None, :])
+            R = C / (hh[:, :, None] * hh[:, None, :])
         R = np.where(np.isfinite(R), R, 0.0)
         a = np.zeros((3, n, m))
         b = np.zeros((3, n, m))
-        for i, suffix in enumerate(STATE_SUFFIXES):
-            col = angle + suffix
-            if not np.any(h[:, i] > 0):
+        for i in range(3):
+            if (angle, i) not in at:
                 continue
-            x = state[col].to_numpy(dtype=float)
-            Lp = _numeric(evaluate(shifted(col, x + h[:, i])), names)
+            Lp = outputs[at[angle, i]]
             if order == 1:
                 a[i] = np.nan_to_num(Lp - L0)
                 continue
-            Lm = _numeric(evaluate(shifted(col, x - h[:, i])), names)
+            Lm = outputs[at[angle, i] + 1]
             a[i] = np.nan_to_num(0.5 * (Lp - Lm))
             b[i] = np.nan_to_num(Lp + Lm - 2.0 * L0)
         for i in range(3):
@@ -104,3 +139,8 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
     sd = np.sqrt(np.clip(var, 0.0, None))
     sd = np.where(np.isfinite(L0), sd, np.nan)
     return Propagation(names=names, value=L0, sd=sd, by_order=lin)
+
+
+def _load_names(result: pd.DataFrame, state: pd.DataFrame) -> list[str]:
+    """Every float column of ``result`` that ``state`` does not hold."""
+    return [c for c in result.columns if c not in state.columns and result[c].dtype.kind == "f"]
