@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kalman_batch import StepModel, batch_kalman_filter
+from .kalman_batch import FilterResult, StepModel, batch_kalman_filter
 
 
 @dataclass(frozen=True)
@@ -103,7 +103,8 @@ def maximum_likelihood_noise(
     q_given: np.ndarray,
     settings: NoiseSearch = NoiseSearch(),
     shape: np.ndarray | None = None,
-) -> list[NoiseEstimate]:
+    store: bool = False,
+) -> tuple[list[NoiseEstimate], FilterResult]:
     """Maximum-likelihood ``λ = q/r²`` and ``r²`` for each of ``A`` angles.
 
     ``z``, ``valid``, ``lik_weight`` (A, n); ``grid`` candidate ``λ``; ``r2_ref`` (A,) the
@@ -112,8 +113,10 @@ def maximum_likelihood_noise(
     ``r2_given``/``q_given`` (A,) NaN where free (``q`` in smoother units). With both free
     ``r²`` is profiled out; with ``r`` given ``λ`` is searched with ``r`` fixed; with ``q``
     given the grid runs over ``r² = q/λ``. ``shape`` (A, n): the process noise of each
-    step relative to ``λ`` (default 1 everywhere; :func:`local_noise_estimate`), so that
-    ``λ`` is then the scale of that profile.
+    step relative to ``λ`` (default 1 everywhere; :func:`jerk_noise_shape`), so that
+    ``λ`` is then the scale of that profile. Also returns the batched filter's result
+    (series ``a * len(grid) + j`` for angle ``a`` and ``grid[j]``, run with ``r2_ref``;
+    with ``store`` the histories a smoother needs).
     """
     A = z.shape[0]
     m = grid.size
@@ -131,6 +134,7 @@ def maximum_likelihood_noise(
         r2_ref[rep],
         x0[rep],
         P0[rep],
+        store=store,
     )
     log_s, nu2_s, cnt = filt.loglik_sums(lik_weight[rep])
     log_s = log_s.reshape(A, m)
@@ -163,7 +167,7 @@ def maximum_likelihood_noise(
         if np.isfinite(q_given[a]):
             lam_use = lam_ml
         out.append(NoiseEstimate(lam_ml, lam_use, r2, ll_best, j in (0, m - 1)))
-    return out
+    return out, filt
 
 
 @dataclass(frozen=True)

@@ -43,6 +43,8 @@ from .events import (
     trigger_estimate,
 )
 from .kalman_batch import (
+    FilterResult,
+    SmootherResult,
     StepModel,
     backward_smoother,
     batch_kalman_filter,
@@ -441,21 +443,30 @@ def smooth(
     rel_s = None if release is None else (release - t[0]) / tau
     steps, start = event_step_model(ts, k, trig_s, rel_s, jerk_time)
 
-    def tune(steps: StepModel, grid: np.ndarray) -> list[NoiseEstimate]:
+    def tune(steps: StepModel, grid: np.ndarray, store: bool = False
+             ) -> tuple[list[NoiseEstimate], FilterResult | None]:
+        """Estimates per angle and, with ``store``, the grid filter's result for the
+        free angles (``q`` not given) at the grid point nearest each one's maximum (None
+        if one of them was not searched)."""
         need = [a for a in range(A) if not (np.isfinite(q_given[a]) and np.isfinite(r2_given[a]))]
         est: list[NoiseEstimate | None] = [None] * A
         for a in range(A):
             if a not in need:
                 lam = q_given[a] / r2_given[a]
                 est[a] = NoiseEstimate(lam, lam, float(r2_given[a]), np.nan, False)
+        nearest = None
         if need:
-            found = maximum_likelihood_noise(
+            found, filt = maximum_likelihood_noise(
                 Z[need], valid[need], weight[need], steps, grid, r2_ref[need], kick[need],
-                x0[need], P0[need], r2_given[need], q_given[need], settings.noise,
+                x0[need], P0[need], r2_given[need], q_given[need], settings.noise, store=store,
             )
             for a, e in zip(need, found, strict=True):
                 est[a] = e
-        return est  # type: ignore[return-value]
+            if store and all(a in need for a in free):
+                nearest = filt.series(np.array([
+                    need.index(a) * grid.size
+                    + int(np.argmin(np.abs(np.log(grid / est[a].lam_ml)))) for a in free]))
+        return est, nearest  # type: ignore[return-value]
 
     def tune_pieces(steps: StepModel, est: list[NoiseEstimate], start: int,
                     rel_index: int | None, pieces: bool = True
@@ -501,47 +512,61 @@ def smooth(
         return filt, backward_smoother(steps, filt, valid[two])
 
     def local_noise(steps: StepModel, acc: np.ndarray, est: list[NoiseEstimate],
-                    lam_ml: np.ndarray,
-                    free: list[int]) -> tuple[np.ndarray, np.ndarray, list[NoiseEstimate]]:
-        """λ per angle and frame (to use, maximum likelihood) and the estimates: the shape
-        of :func:`~trebuchet.ingest.noise_tuning.jerk_noise_shape` from ``acc`` (A, n), the
-        acceleration of a smoother at the maximum-likelihood λ ``lam_ml``; its scale per
-        angle by maximum likelihood, and ``cutoff_factor`` applied to that scale as to the
-        single λ."""
+                    lam_ml: np.ndarray, free: list[int]
+                    ) -> tuple[np.ndarray, np.ndarray, list[NoiseEstimate], SmootherResult]:
+        """λ per angle and frame (to use, maximum likelihood), the estimates and the
+        smoother of the angles ``free`` with the λ to use: the shape of
+        :func:`~trebuchet.ingest.noise_tuning.jerk_noise_shape` from ``acc`` (len(free),
+        n), the acceleration of a smoother at about the maximum-likelihood λ ``lam_ml``
+        (A, n); its scale per angle by maximum likelihood (``r`` kept), with
+        ``cutoff_factor`` applied to that scale as to a single λ. The scale grid's step
+        divides the cutoff's shift, so the filter of the grid point that shift below the
+        maximum is the one to use: one batched pass fits the scale and filters."""
         w = np.any(steps.Q0 != 0.0, axis=(1, 2)) & ~np.any(steps.G != 0.0, axis=(1, 2))
-        w = w.astype(float)
-        ref = np.array([np.exp(np.average(np.log(lam_ml[a]), weights=w + 1e-300))
-                        for a in range(A)])
-        shape = jerk_noise_shape(acc, ts, w,
-                                 settings.local_window * ref ** (-1.0 / (2 * k)),
+        w = w.astype(float) + 1e-300
+        ref = np.array([np.exp(np.average(np.log(lam_ml[a]), weights=w)) for a in free])
+        shape = jerk_noise_shape(acc, ts, w, settings.local_window * ref ** (-1.0 / (2 * k)),
                                  settings.local_floor) * ref[:, None]
-        step = settings.noise.log10_step / 2
+        cut = -2 * k * np.log10(settings.noise.cutoff_factor)
+        shift = int(np.ceil(cut / (settings.noise.log10_step / 2) - 1e-9)) if cut > 0 else 0
+        step = cut / shift if shift else settings.noise.log10_step / 2
         half = int(np.ceil(settings.local_scale_decades / step))
-        found = maximum_likelihood_noise(
-            Z[free], valid[free], weight[free], steps, 10.0 ** (step * np.arange(-half, half + 1)),
-            r2_ref[free], kick[free], x0[free], P0[free], r2_given[free], q_given[free],
-            settings.noise, shape=shape[free])
+        offsets = step * np.arange(-half - shift, half + 1)
+        r2 = np.array([est[a].r2 for a in free])
+        found, filt = maximum_likelihood_noise(
+            Z[free], valid[free], weight[free], steps, 10.0**offsets, r2, kick[free],
+            x0[free], P0[free], r2, np.full(len(free), np.nan), settings.noise, shape=shape,
+            store=True)
         est = list(est)
         lam_use = np.array([[e.lam] for e in est]) * np.ones((A, n))
         lam_ml = lam_ml.copy()
-        for e, a in zip(found, free, strict=True):
-            est[a] = NoiseEstimate(e.lam_ml * ref[a], e.lam * ref[a], e.r2, e.loglik, e.at_edge)
-            lam_ml[a] = e.lam_ml * shape[a]
-            lam_use[a] = e.lam * shape[a]
-        return lam_use, lam_ml, est
+        pick = []
+        for j, (e, a) in enumerate(zip(found, free, strict=True)):
+            top = int(np.clip(np.round((np.log10(e.lam_ml) - offsets[0]) / step), 0,
+                              offsets.size - 1))
+            use = max(top - shift, 0)
+            pick.append(j * offsets.size + use)
+            est[a] = NoiseEstimate(e.lam_ml * ref[j], 10.0 ** offsets[use] * ref[j], e.r2,
+                                   e.loglik, e.at_edge or top - shift < 0)
+            lam_ml[a] = e.lam_ml * shape[j]
+            lam_use[a] = 10.0 ** offsets[use] * shape[j]
+        return lam_use, lam_ml, est, backward_smoother(steps, filt.series(np.array(pick)),
+                                                       valid[free])
 
     def release_index(rel_s: float | None) -> int | None:
         return None if rel_s is None else int(np.searchsorted(ts, rel_s, side="right"))
 
     free = [a for a in range(A) if not np.isfinite(q_given[a])]
     shaped = settings.local_noise and bool(free)
-    est = tune(steps, grid)
+
     scan = "release" not in given  # one q per angle for the release scan, pieces after it
+    # local noise: its shape comes from a smoother at the grid point nearest the
+    # maximum-likelihood q of the last tuning (which must have run on the final steps)
+    est, nearest = tune(steps, grid, store=shaped and not scan)
     lam_use, lam_ml, bounds = tune_pieces(steps, est, start, release_index(rel_s),
                                           pieces=not scan)
-    # with local noise, the smoother before it runs at the maximum-likelihood q
-    filt, sm = final_pass(steps, lam_ml if shaped else lam_use, lam_ml, est, scan)
-    ml_series = A if scan else 0
+    if scan or not shaped:
+        filt, sm = final_pass(steps, lam_use, lam_ml, est, scan)
 
     if "release" in given:
         sources["release"] = "given" if release is not None else "given as none"
@@ -560,27 +585,34 @@ def smooth(
         if rel_s is not None:
             release = float(t[0] + rel_s * tau)
             steps, start = event_step_model(ts, k, trig_s, rel_s, jerk_time)
+            nearest = None
             if settings.retune_after_release:
                 ml = np.array([e.lam_ml for e in est])
                 step = settings.noise.log10_step / 2
                 local = 10.0 ** (np.log10(np.median(ml)) + step * np.arange(-6, 7))
                 local = np.unique(np.concatenate([local, grid]))
                 local = local[(local > ml.min() / 30) & (local < ml.max() * 30)]
-                est = tune(steps, 10.0 ** np.linspace(
+                est, nearest = tune(steps, 10.0 ** np.linspace(
                     np.log10(local.min()), np.log10(local.max()),
-                    int(round(np.log10(local.max() / local.min()) / step)) + 1))
+                    int(round(np.log10(local.max() / local.min()) / step)) + 1), store=shaped)
             lam_use, lam_ml, bounds = tune_pieces(steps, est, start, release_index(rel_s))
-            filt, sm = final_pass(steps, lam_ml if shaped else lam_use, lam_ml, est, scan=False)
-            ml_series = 0
+            if not shaped:
+                filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
         elif settings.shot_pieces >= 1:
             lam_use, lam_ml, bounds = tune_pieces(steps, est, start, None)
-            filt, sm = final_pass(steps, lam_ml if shaped else lam_use, lam_ml, est, scan=False)
-            ml_series = 0
+            if not shaped:
+                filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
 
     if shaped:
-        acc = sm.x[:, ml_series:ml_series + A, 2].T
-        lam_use, lam_ml, est = local_noise(steps, acc, est, lam_ml, free)
-        filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
+        if nearest is None:
+            r2f = np.array([est[a].r2 for a in free])
+            nearest = batch_kalman_filter(Z[free], valid[free], steps,
+                                          lam_ml[free] * r2f[:, None], kick[free], r2f,
+                                          x0[free], P0[free], store=True)
+        acc = backward_smoother(steps, nearest, valid[free]).x[:, :, 2].T
+        lam_use, lam_ml, est, sm = local_noise(steps, acc, est, lam_ml, free)
+        if len(free) < A:
+            filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
 
     xs, Ps = sm.x[:, :A], sm.P[:, :A]
     if backend == "filterpy":
