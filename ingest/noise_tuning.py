@@ -254,7 +254,7 @@ def piecewise_noise(
 def windowed_noise(est: np.ndarray, weight: np.ndarray, half_width: np.ndarray,
                    floor: np.ndarray) -> np.ndarray:
     """Local process noise (B, n): the per-step estimates ``est`` (B, n) averaged with
-    weights ``weight`` (n,) over a Gaussian window of sd ``half_width`` (B,) steps, and
+    weights ``weight`` (B, n) over a Gaussian window of sd ``half_width`` (B,) steps, and
     not below ``floor`` (B,). Where the window holds no weight, the floor."""
     B, n = est.shape
     out = np.empty_like(est)
@@ -262,8 +262,8 @@ def windowed_noise(est: np.ndarray, weight: np.ndarray, half_width: np.ndarray,
         h = max(float(half_width[b]), 1.0)
         span = min(int(np.ceil(4 * h)), (n - 1) // 2)
         kern = np.exp(-0.5 * (np.arange(-span, span + 1) / h) ** 2)
-        num = np.convolve(est[b] * weight, kern, mode="same")
-        den = np.convolve(weight, kern, mode="same")
+        num = np.convolve(est[b] * weight[b], kern, mode="same")
+        den = np.convolve(weight[b], kern, mode="same")
         with np.errstate(invalid="ignore", divide="ignore"):
             local = np.where(den > 1e-9, num / den, floor[b])
         out[b] = np.maximum(local, floor[b])
@@ -279,8 +279,9 @@ def jerk_noise_shape(acc: np.ndarray, ts: np.ndarray, weight: np.ndarray,
     ``q`` is taken proportional to the squared jerk ``(Δa/Δt)²`` of a first smoothed
     acceleration ``acc`` (A, n) (smoother units; ``ts`` (n,) frame times), averaged over a
     Gaussian window of sd ``half_width`` (A,) steps (:func:`windowed_noise`) over the steps
-    with ``weight`` (n,) > 0 (steps with process noise and no event kick), and not below
-    ``floor`` times its mean. The scale is left to maximum likelihood
+    with ``weight`` (A, n) > 0 (steps with process noise and no event kick, inside the
+    angle's track: outside it the smoother extrapolates with no jerk at all), and not
+    below ``floor`` times its mean. The scale is left to maximum likelihood
     (:func:`maximum_likelihood_noise` with ``shape``).
     """
     A, n = acc.shape
@@ -289,6 +290,6 @@ def jerk_noise_shape(acc: np.ndarray, ts: np.ndarray, weight: np.ndarray,
     jerk2[:, 1:] = (np.diff(acc, axis=1) / np.maximum(dt, 1e-12)) ** 2
     local = windowed_noise(jerk2, weight, half_width, np.zeros(A))
     w = weight + 1e-300
-    level = np.array([np.average(local[a], weights=w) for a in range(A)])
+    level = np.array([np.average(local[a], weights=w[a]) for a in range(A)])
     level = np.where(level > 0, level, 1.0)
     return np.maximum(local / level[:, None], floor)

@@ -46,7 +46,11 @@ def _rms_rel(res, truth, col) -> float:
 
 
 def _coverage(res, truth, col) -> float:
+    """Share of the shot's frames with the truth inside ±2 sd; |F_S| only while the sling
+    holds the projectile (after the release load and truth are both 0: inside any band)."""
     m = _moving(truth, res)
+    if col == "F_S_abs":
+        m &= truth["phase"].to_numpy() <= 2
     err = np.abs(res[col].to_numpy()[m] - truth[col].to_numpy()[m])
     return float(np.mean(err <= 2 * res[col + "_sd"].to_numpy()[m]))
 
