@@ -9,12 +9,15 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 
+# The simulator is compiled once (numba, ~30 s) and cached beside its sources.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e .
+	$(BIN)/python -c 'from trebuchet.model.shot_kernel import warm_up; warm_up()'
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e '.[test]'
+	$(BIN)/python -c 'from trebuchet.model.shot_kernel import warm_up; warm_up()'
 	touch $(VENV)/.installed $@
 
 install: $(VENV)/.installed

@@ -3,9 +3,12 @@
 Times, over ``REPEATS`` runs after a warm-up, interleaved so that the load of the machine falls
 on all alike:
 
-* ``simulate``: :func:`trebuchet.model.simulate.simulate` at its defaults (DOP853, rtol 1e-10,
-  atol 1e-12, outputs every 1 ms plus the events, every force of the contract);
+* ``simulate``: :func:`trebuchet.model.simulate.simulate` at its defaults (DOP853 compiled with
+  numba, rtol 1e-10, atol 1e-12, outputs every 1 ms plus the events, every force of the
+  contract);
 * ``integrate``: the integration alone (:func:`trebuchet.model.simulate.integrate`);
+* ``simulate (python-DOP853)``: the same steps taken by the pure-Python DOP853 of
+  :mod:`trebuchet.model.integrator` (what the default was before the compiled kernel);
 * ``simulate (scipy solve_ivp)``: the same simulator with ``method="scipy-DOP853"``;
 * ``plain solve_ivp``: :func:`plain_shot` below, the baseline of the issue: the equations of
   motion written plainly from the Lagrangian (a numpy mass matrix and ``np.linalg.solve``
@@ -233,16 +236,19 @@ def run(out_dir: str | Path | None = None, repeats: int = REPEATS) -> pd.DataFra
     table; the accuracy of the baseline against ``simulate`` goes in ``attrs['notes']``."""
     scene = Scene.from_toml(SCENE)
     cases = {
-        "simulate (default: lean DOP853)": lambda: simulate(scene),
-        "integrate only (lean DOP853)": lambda: integrate(scene),
+        "simulate (default: compiled DOP853)": lambda: simulate(scene),
+        "integrate only (compiled DOP853)": lambda: integrate(scene),
+        "simulate with method='python-DOP853' (same steps, pure Python)": lambda: simulate(
+            scene, method="python-DOP853"),
         "simulate with method='scipy-DOP853' (solve_ivp)": lambda: simulate(
             scene, method="scipy-DOP853"),
         "plain solve_ivp implementation (baseline)": lambda: plain_shot(scene),
     }
-    nfev = {"simulate (default: lean DOP853)": integrate(scene).nfev,
-            "integrate only (lean DOP853)": integrate(scene).nfev,
-            "simulate with method='scipy-DOP853' (solve_ivp)": integrate(
-                scene, method="scipy-DOP853").nfev}
+    nfev = {name: integrate(scene, method=method).nfev for name, method in (
+        ("simulate (default: compiled DOP853)", "DOP853"),
+        ("integrate only (compiled DOP853)", "DOP853"),
+        ("simulate with method='python-DOP853' (same steps, pure Python)", "python-DOP853"),
+        ("simulate with method='scipy-DOP853' (solve_ivp)", "scipy-DOP853"))}
     for fn in cases.values():
         for _ in range(WARMUP):
             fn()

@@ -12,7 +12,9 @@ counterweight (a pendulum driven by the hinge) and the projectile (dragged in
 the trough in phase I, swinging in the sling in phase II, gone in phase III).
 The counterweight's and sling's accelerations then follow from their own
 pendulum equations. Every function works on floats (``lib=math``, for the
-integrator) and on numpy arrays (``lib=numpy``, the default, for outputs).
+integrator) and on numpy arrays (``lib=numpy``, the default, for outputs), and
+compiles unchanged with numba (:mod:`trebuchet.model.shot_kernel`); ``e`` is an
+:class:`~trebuchet.model.scene.Engine` or anything with its attributes.
 
 Angles in rad, rates in rad/s, accelerations in rad/s², lengths in m, masses in
 kg, ``g`` in m/s².
@@ -36,6 +38,9 @@ __all__ = [
     "accelerations_phase1",
     "accelerations_phase2",
     "accelerations_phase3",
+    "state_rates_phase1",
+    "state_rates_phase2",
+    "state_rates_phase3",
 ]
 
 
@@ -86,7 +91,7 @@ def beam_and_counterweight(theta: Any, psi: Any, theta_d: Any, psi_d: Any, q_pro
     cos_th = lib.cos(theta)
     q = q_proj - e.m_b * e.L_CM * g * cos_th
     i = i_proj + e.I
-    if e.counterweight_offset is not None:
+    if e.fixed_counterweight:
         rho2 = e.L2 * e.L2 + e.L3 * e.L3 - 2.0 * e.L2 * e.L3 * lib.cos(e.counterweight_offset)
         theta_dd = (q + e.M * g * (e.L2 * cos_th - e.L3 * lib.cos(psi))) / (i + e.M * rho2)
         return theta_dd, theta_dd
@@ -141,3 +146,25 @@ def accelerations_phase3(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engi
                          lib: ModuleType = np) -> tuple[Any, Any]:
     """Phase III (projectile released, or a dry fire): θ̈, ψ̈ of beam and counterweight alone."""
     return beam_and_counterweight(theta, psi, theta_d, psi_d, 0.0, 0.0, e, g, lib)
+
+
+def state_rates_phase1(y: Any, e: Engine, g: float, H: float,
+                       lib: ModuleType = np) -> tuple[Any, Any, Any, Any]:
+    """Time derivative of the phase-I state ``y = (θ, ψ, θ̇, ψ̇)``: ``(θ̇, ψ̇, θ̈, ψ̈)``."""
+    _, _, th_dd, ps_dd, _ = accelerations_phase1(y[0], y[1], y[2], y[3], e, g, H, lib)
+    return y[2], y[3], th_dd, ps_dd
+
+
+def state_rates_phase2(y: Any, e: Engine, g: float,
+                       lib: ModuleType = np) -> tuple[Any, Any, Any, Any, Any, Any]:
+    """Time derivative of the phase-II state ``y = (θ, ψ, φ, θ̇, ψ̇, φ̇)``:
+    ``(θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈)``."""
+    th_dd, ps_dd, ph_dd = accelerations_phase2(y[0], y[1], y[2], y[3], y[4], y[5], e, g, lib)
+    return y[3], y[4], y[5], th_dd, ps_dd, ph_dd
+
+
+def state_rates_phase3(y: Any, e: Engine, g: float,
+                       lib: ModuleType = np) -> tuple[Any, Any, Any, Any]:
+    """Time derivative of the phase-III state ``y = (θ, ψ, θ̇, ψ̇)``: ``(θ̇, ψ̇, θ̈, ψ̈)``."""
+    th_dd, ps_dd = accelerations_phase3(y[0], y[1], y[2], y[3], e, g, lib)
+    return y[2], y[3], th_dd, ps_dd

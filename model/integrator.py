@@ -459,7 +459,7 @@ def solve(fun: Callable[[float, list[float]], Sequence[float]], t_span: tuple[fl
             h_abs = min_step
         rejected = False
         while True:
-            if h_abs < min_step:
+            if not h_abs >= min_step:  # also a NaN step from a NaN right-hand side
                 status = -1
                 break
             t_new = t + h_abs

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
@@ -24,8 +24,10 @@ import pandas as pd
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
 
 from . import dynamics as dyn
+from . import phase_events as pev
 from .flight import flight_summary
-from .forces import loads
+from .forces import load_columns
+from .frames import frame
 from .scene import Scene
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
@@ -35,6 +37,9 @@ ACCURACY = {"fast": 1e-6, "default": DEFAULT_RTOL, "precise": 1e-12}  # named to
 DEFAULT_AFTER_RELEASE = 0.5  # s of phase III simulated by default
 DEFAULT_DRY_FIRE = 1.5  # s simulated by default for a dry fire (phase III from the start)
 MAX_SHOT = 60.0  # s: a shot still in the trough or sling by then is refused
+#: Angles, rates and accelerations, in the row order of :meth:`Trajectory.angle_columns`.
+STATE_COLUMNS = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "psi_dd",
+                 "phi_dd")
 
 
 @dataclass(frozen=True)
@@ -71,6 +76,10 @@ class Trajectory:
     def angles(self, t: np.ndarray) -> pd.DataFrame:
         """Angles, rates and accelerations at times ``t`` (s). At an event time the row takes
         the phase that ends there (left limit); ``t = 0`` is 0+ (the shot has started)."""
+        return frame(self.angle_columns(t))
+
+    def angle_columns(self, t: np.ndarray) -> dict[str, np.ndarray]:
+        """:meth:`angles` as a dict of columns ``t, phase, theta … phi_dd``."""
         t = np.asarray(t, dtype=float)
         if t.ndim != 1:
             raise ValueError("t_eval must be one-dimensional")
@@ -78,13 +87,8 @@ class Trajectory:
             raise TrebuchetInputError(f"t_eval must lie within [0, {self.t_end:.6g}] s (the "
                                       "simulated shot); ask for a longer phase III with "
                                       "after_release=")
-        from .frames import frame
-
-        e, g, H = self.scene.engine, self.scene.g, self.scene.start.H
-        names = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "psi_dd",
-                 "phi_dd")
         n = t.size
-        block = np.full((len(names), n), np.nan)
+        block = np.full((len(STATE_COLUMNS), n), np.nan)
         phase = np.zeros(n, dtype=np.int64)
         # phase k takes (t1 of phase k-1, t1 of phase k]; the first also t <= its t1
         which = np.minimum(np.searchsorted([p.t1 for p in self.phases], t, side="left"),
@@ -96,149 +100,100 @@ class Trajectory:
             if sel[-1] - sel[0] + 1 == sel.size:  # sorted times: a slice, no gather
                 sel = slice(int(sel[0]), int(sel[-1]) + 1)
             phase[sel] = p.phase
-            y = p.sol(t[sel])
-            if p.phase == 1:
-                th, ps, th_d, ps_d = y
-                ph, ph_d, th_dd, ps_dd, ph_dd = dyn.accelerations_phase1(th, ps, th_d, ps_d, e,
-                                                                         g, H)
-            elif p.phase == 2:
-                th, ps, ph, th_d, ps_d, ph_d = y
-                th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g)
-            else:
-                th, ps, th_d, ps_d = y
-                th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
-                ph = ph_d = ph_dd = np.nan
-            for row, v in enumerate((th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd)):
-                block[row, sel] = v
-        return frame({"t": t, "phase": phase, **dict(zip(names, block, strict=True))})
+            block[:, sel] = self._phase_columns(p, t[sel])
+        return {"t": t, "phase": phase, **dict(zip(STATE_COLUMNS, block, strict=True))}
+
+    def _phase_columns(self, p: PhaseSolution, t: np.ndarray) -> np.ndarray:
+        """Rows of :data:`STATE_COLUMNS` of one phase at times ``t`` inside it."""
+        if hasattr(p.sol, "columns"):  # the compiled integrator evaluates them itself
+            out = np.empty((len(STATE_COLUMNS), t.size))
+            p.sol.columns(t, out)
+            return out
+        e, g, H = self.scene.engine, self.scene.g, self.scene.start.H
+        y = p.sol(t)
+        if p.phase == 1:
+            th, ps, th_d, ps_d = y
+            ph, ph_d, th_dd, ps_dd, ph_dd = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H)
+        elif p.phase == 2:
+            th, ps, ph, th_d, ps_d, ph_d = y
+            th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g)
+        else:
+            th, ps, th_d, ps_d = y
+            th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
+            ph = ph_d = ph_dd = np.full_like(th, np.nan)
+        return np.array([th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd])
 
 
-def _rhs_phase1(scene: Scene, lib: ModuleType = math) -> Callable:
-    """Phase I right-hand side for state (θ, ψ, θ̇, ψ̇): on lists of floats with ``lib=math``
-    (the integrator's steps), on arrays of shape (4, m) with ``lib=numpy`` (dense output)."""
+def _rhs(scene: Scene, kind: int, lib: ModuleType = math) -> Callable:
+    """Right-hand side of phase ``kind`` for the pure-Python integrators: on lists of floats with
+    ``lib=math`` (the steps), on arrays of shape (n, m) with ``lib=numpy`` (dense output)."""
     e, g, H = scene.engine, scene.g, scene.start.H
-
-    def rhs(t: Any, y: Sequence[Any]) -> Any:
-        th, ps, th_d, ps_d = y
-        _, _, th_dd, ps_dd, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H, lib)
-        return _pack(lib, th_d, ps_d, th_dd, ps_dd)
-
+    if kind == 1:
+        def rhs(t: Any, y: Sequence[Any]) -> Any:
+            return _pack(lib, dyn.state_rates_phase1(y, e, g, H, lib))
+    elif kind == 2:
+        def rhs(t: Any, y: Sequence[Any]) -> Any:
+            return _pack(lib, dyn.state_rates_phase2(y, e, g, lib))
+    else:
+        def rhs(t: Any, y: Sequence[Any]) -> Any:
+            return _pack(lib, dyn.state_rates_phase3(y, e, g, lib))
     return rhs
 
 
-def _rhs_phase2(scene: Scene, lib: ModuleType = math) -> Callable:
-    """Phase II right-hand side for state (θ, ψ, φ, θ̇, ψ̇, φ̇); see :func:`_rhs_phase1`."""
-    e, g = scene.engine, scene.g
-
-    def rhs(t: Any, y: Sequence[Any]) -> Any:
-        th, ps, ph, th_d, ps_d, ph_d = y
-        th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, lib)
-        return _pack(lib, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd)
-
-    return rhs
-
-
-def _rhs_phase3(scene: Scene, lib: ModuleType = math) -> Callable:
-    """Phase III right-hand side for state (θ, ψ, θ̇, ψ̇); see :func:`_rhs_phase1`."""
-    e, g = scene.engine, scene.g
-
-    def rhs(t: Any, y: Sequence[Any]) -> Any:
-        th, ps, th_d, ps_d = y
-        th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g, lib)
-        return _pack(lib, th_d, ps_d, th_dd, ps_dd)
-
-    return rhs
-
-
-def _pack(lib: ModuleType, *parts: Any) -> Any:
+def _pack(lib: ModuleType, parts: tuple[Any, ...]) -> Any:
     """A derivative as the integrator's step wants it (a list) or as an (n, m) array."""
     return list(parts) if lib is math else np.array(parts)
 
 
-def _event(fun: Callable[[float, Any], float], direction: float) -> Callable:
+def _event(scene: Scene, kind: int, par: float) -> Callable:
+    """An event of :mod:`~trebuchet.model.phase_events` as ``solve_ivp`` wants it: ``g(t, y)``
+    with ``terminal`` and ``direction``."""
+    e, g, H = scene.engine, scene.g, scene.start.H
+
+    def fun(t: float, y: Sequence[float]) -> float:
+        return pev.event_value(kind, t, y, e, g, H, par)
+
     fun.terminal = True  # type: ignore[attr-defined]
-    fun.direction = direction  # type: ignore[attr-defined]
+    fun.direction = pev.DIRECTION[kind]  # type: ignore[attr-defined]
     return fun
 
 
-def _lift_off_event(scene: Scene) -> Callable:
-    """Normal force of the trough over the projectile's weight, ``F_N/(m g)``; lift-off at 0."""
-    e, g, H = scene.engine, scene.g, scene.start.H
-
-    def normal_force(t: float, y: Sequence[float]) -> float:
-        th, ps, th_d, ps_d = y
-        ph, _, th_dd, _, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H, math)
-        f, gg = dyn.trough_f_g(th, ph, e, math)
-        return 1.0 - e.L1 * (f * th_dd + gg * th_d * th_d) * math.tan(ph) / g
-
-    return _event(normal_force, -1.0)
+#: Integrators of :func:`simulate`'s ``method``: DOP853 compiled (default), the same method in
+#: pure Python, or any ``solve_ivp`` method prefixed ``scipy-`` (a bare scipy name also works).
+METHODS = ("DOP853", "python-DOP853", "scipy-DOP853", "scipy-RK45", "scipy-Radau",
+           "scipy-LSODA", "scipy-BDF", "scipy-RK23")
 
 
-def _sling_upright_event(scene: Scene) -> Callable:
-    """The sling stands vertical over a projectile still in the trough (cos φ → 0): the
-    counterweight cannot lift the projectile."""
-    e, H = scene.engine, scene.start.H
-
-    def upright(t: float, y: Sequence[float]) -> float:
-        return (H + e.L1 * math.sin(y[0])) / e.L4 - 0.999
-
-    return _event(upright, 1.0)
-
-
-def _ground_event(scene: Scene) -> Callable:
-    """Height of the projectile in the sling, m (a hair below ground counts as the ground, so
-    that lift-off from the trough at y = 0 is not taken for a strike)."""
-    e, H = scene.engine, scene.start.H
-    margin = 1e-9 * (e.L1 + e.L4)
-
-    def height(t: float, y: Sequence[float]) -> float:
-        return H + e.L1 * math.sin(y[0]) + e.L4 * math.sin(y[2]) + margin
-
-    return _event(height, -1.0)
-
-
-def _time_event(t_release: float) -> Callable:
-    return _event(lambda t, y: t - t_release, 1.0)
-
-
-def _velocity_angle_event(scene: Scene, angle: float) -> Callable:
-    """``|v| sin(α − β)`` where β is the projectile's climb toward −x; zero when β = α."""
-    e = scene.engine
-    sa, ca = math.sin(angle), math.cos(angle)
-
-    def climb(t: float, y: Sequence[float]) -> float:
-        th, _, ph, th_d, _, ph_d = y
-        vx = -e.L1 * th_d * math.sin(th) - e.L4 * ph_d * math.sin(ph)
-        vy = e.L1 * th_d * math.cos(th) + e.L4 * ph_d * math.cos(ph)
-        return sa * (-vx) - ca * vy
-
-    return _event(climb, 1.0)
-
-
-def _solve(rhs: tuple[Callable, Callable], t0: float, t1: float, y0: Sequence[float],
-           events: list[Callable], rtol: float, method: str,
+def _solve(scene: Scene, kind: int, t0: float, t1: float, y0: Sequence[float],
+           events: list[tuple[int, float]], rtol: float, method: str,
            first_step: float | None = None) -> Any:
-    """``rhs`` is the right-hand side on floats and on arrays (for the dense output of all
-    steps at once). DOP853 (default): the lean integrator of
-    :mod:`trebuchet.model.integrator`, the same method as scipy's at a fraction of the
-    overhead; ``"scipy-DOP853"`` or any other
-    ``solve_ivp`` method name: ``scipy.integrate.solve_ivp``.
+    """Integrate phase ``kind`` (1 trough, 2 sling, 3 released) from ``t0`` to ``t1`` (s) or to
+    the first of ``events`` (kinds of :mod:`~trebuchet.model.phase_events` with their
+    parameter). DOP853 (default): compiled (:mod:`trebuchet.model.shot_kernel`);
+    ``"python-DOP853"``: the same steps in pure Python (:mod:`trebuchet.model.integrator`);
+    ``"scipy-DOP853"`` or any other ``solve_ivp`` method name: ``scipy.integrate.solve_ivp``.
 
     ``first_step`` (s) carries the step size across a phase change: the automatic first-step
     guess can overshoot after lift-off or release, and DOP853's error estimate does not always
     catch it on a first step (energy errors of 1e-7 of ΔU were seen)."""
     if first_step is not None:
         first_step = min(first_step, t1 - t0)
-    rhs, rhs_arrays = rhs
     if method == "DOP853":
+        from .shot_kernel import solve_phase
+
+        return solve_phase(kind, scene.engine, scene.g, scene.start.H, t0, t1,
+                           np.asarray(y0, dtype=float), rtol, first_step, tuple(events))
+    ev = [_event(scene, k, par) for k, par in events]
+    if method == "python-DOP853":
         from .integrator import solve
 
-        return solve(rhs, (t0, t1), y0, rtol=rtol, atol=rtol * 1e-2, dense_output=True,
-                     events=events, first_step=first_step, vectorized_fun=rhs_arrays)
+        return solve(_rhs(scene, kind), (t0, t1), y0, rtol=rtol, atol=rtol * 1e-2,
+                     dense_output=True, events=ev, first_step=first_step,
+                     vectorized_fun=_rhs(scene, kind, np))
     from scipy.integrate import solve_ivp  # imported when used: it costs ~0.5 s
 
-    return solve_ivp(rhs, (t0, t1), y0, method=method.removeprefix("scipy-"), rtol=rtol,
-                     atol=rtol * 1e-2, dense_output=True, events=events or None,
+    return solve_ivp(_rhs(scene, kind), (t0, t1), y0, method=method.removeprefix("scipy-"),
+                     rtol=rtol, atol=rtol * 1e-2, dense_output=True, events=ev or None,
                      first_step=first_step)
 
 
@@ -293,8 +248,7 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     # Phase III: beam and counterweight swing on; the projectile flies (or there is none).
     t_end = t0 + after_release
     if after_release > 0.0 or not phases:
-        sol = _solve((_rhs_phase3(scene), _rhs_phase3(scene, np)), t0, t_end, beam, [], rtol,
-                     method,
+        sol = _solve(scene, 3, t0, t_end, beam, [], rtol, method,
                      phases[-1].last_step if phases else None)
         _check(sol, scene, "phase III")
         phases.append(PhaseSolution(3, t0, t_end, sol.sol, sol.nfev))
@@ -310,9 +264,8 @@ def _phase_trough(scene: Scene, beam: list[float], rtol: float, method: str,
     lift-off. Returns the lift-off time and the beam state there."""
     e, rel = scene.engine, scene.release
     t_rel = rel.time if rel.time is not None else math.inf
-    ev = [_lift_off_event(scene), _sling_upright_event(scene)]
-    sol = _solve((_rhs_phase1(scene), _rhs_phase1(scene, np)), 0.0, MAX_SHOT, beam, ev, rtol,
-                 method)
+    ev = [(pev.LIFT_OFF, 0.0), (pev.SLING_UPRIGHT, 0.0)]
+    sol = _solve(scene, 1, 0.0, MAX_SHOT, beam, ev, rtol, method)
     _check(sol, scene, "phase I")
     if sol.status != 1:
         raise TrebuchetInputError(f"{scene.source}: the projectile did not lift off within "
@@ -343,17 +296,16 @@ def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float],
     if t_rel <= t0:
         raise TrebuchetInputError(f"{scene.source}: [release] time = {t_rel:g} s: must come "
                                   f"after the start of phase II at {t0:.4g} s")
-    ev = [_ground_event(scene)]
+    ev = [(pev.GROUND, 0.0)]
     if rel.time is not None:
-        ev.append(_time_event(rel.time))
+        ev.append((pev.RELEASE_TIME, rel.time))
     if rel.velocity_angle is not None:
-        ev.append(_velocity_angle_event(scene, rel.velocity_angle))
+        ev.append((pev.RELEASE_ANGLE, rel.velocity_angle))
     t_stop = min(t_rel, MAX_SHOT) if rel.velocity_angle is None else MAX_SHOT
     th, ps, th_d, ps_d = beam
     ph, ph_d = sling
-    sol = _solve((_rhs_phase2(scene), _rhs_phase2(scene, np)), t0, t_stop,
-                 [th, ps, ph, th_d, ps_d, ph_d], ev, rtol,
-                 method, phases[-1].last_step if phases else None)
+    sol = _solve(scene, 2, t0, t_stop, [th, ps, ph, th_d, ps_d, ph_d], ev, rtol, method,
+                 phases[-1].last_step if phases else None)
     _check(sol, scene, "phase II")
     hits = [(te[0], ye[0], k) for k, (te, ye) in enumerate(zip(sol.t_events, sol.y_events,
                                                                 strict=True)) if te.size]
@@ -395,19 +347,19 @@ def default_times(traj: Trajectory, dt: float = 1e-3) -> np.ndarray:
     return np.unique(np.concatenate([grid, extra]))
 
 
-def engine_energy(run: pd.DataFrame, traj: Trajectory) -> np.ndarray:
+def engine_energy(run: Mapping[str, Any], traj: Trajectory) -> np.ndarray:
     """Mechanical energy gained by the engine since rest, J: ``E_m + E_M + E_beam``, with the
     projectile's energy frozen at its release value once it flies (drag may take it after
     that). Zero for an exact solution: the drift of the integrator."""
-    E_m = run["E_m"].to_numpy()
+    E_m = np.asarray(run["E_m"])
     if traj.release_state is not None:
         rs, e, s = traj.release_state, traj.scene.engine, traj.scene
         y_rest = 0.0
         if s.projectile == "sling":
             y_rest = s.start.H + e.L1 * math.sin(s.start.theta) + e.L4 * math.sin(s.start.phi)
         at_release = 0.5 * e.m * (rs["vx"] ** 2 + rs["vy"] ** 2) + e.m * s.g * (rs["y"] - y_rest)
-        E_m = np.where(run["phase"].to_numpy() == 3, at_release, E_m)
-    return E_m + run["E_M"].to_numpy() + run["E_beam"].to_numpy()
+        E_m = np.where(np.asarray(run["phase"]) == 3, at_release, E_m)
+    return E_m + np.asarray(run["E_M"]) + np.asarray(run["E_beam"])
 
 
 def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *,
@@ -445,11 +397,12 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     rtol = resolve_rtol(rtol)
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
     times = default_times(traj, dt) if t_eval is None else np.asarray(t_eval, dtype=float)
-    run = loads(traj.angles(times), scene, release_state=traj.release_state)
-    _refuse_non_finite(run, scene)  # before attrs: pandas copies attrs on every column read
-    drift = float(np.max(np.abs(engine_energy(run, traj)))) if len(run) else 0.0
+    cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
+    _refuse_non_finite(cols, scene)
+    drift = float(np.max(np.abs(engine_energy(cols, traj)))) if times.size else 0.0
     delta_u = scene.delta_U
-    slack = slack_intervals(run)
+    slack = slack_intervals(cols)
+    run = frame(cols)
     run.attrs["events"] = dict(traj.events)
     run.attrs["flight"] = (None if traj.release_state is None else flight_summary(
         traj.release_state, scene.g, scene.flight, scene.engine.m))
@@ -466,11 +419,12 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     return run
 
 
-def slack_intervals(run: pd.DataFrame) -> list[tuple[float, float]]:
+def slack_intervals(run: Mapping[str, Any]) -> list[tuple[float, float]]:
     """Intervals (s) where the sling holding the projectile would have to push
-    (``sling_tension < 0``): the rigid-sling model is not valid there."""
-    slack = (run["phase"].to_numpy() <= 2) & (run["sling_tension"].to_numpy() < 0.0)
-    t = run["t"].to_numpy()
+    (``sling_tension < 0``): the rigid-sling model is not valid there. ``run``: the loads, a
+    DataFrame or a dict of columns."""
+    slack = (np.asarray(run["phase"]) <= 2) & (np.asarray(run["sling_tension"]) < 0.0)
+    t = np.asarray(run["t"])
     edges = np.flatnonzero(np.diff(np.concatenate([[0], slack.astype(np.int8), [0]])))
     return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
@@ -492,23 +446,28 @@ _UNDEFINED_AFTER_RELEASE = ("phi", "phi_d", "phi_dd")
 _UNDEFINED_DRY_FIRE = ("x_m", "y_m", "vx_m", "vy_m")
 
 
-def _refuse_non_finite(run: pd.DataFrame, scene: Scene) -> None:
+def _refuse_non_finite(cols: Mapping[str, np.ndarray], scene: Scene) -> None:
     """Output holds no NaN or infinity except where a quantity does not exist (the sling's
     angle after release, the projectile of a dry fire); anything else is refused."""
-    floats = run.select_dtypes("float")
-    bad = ~np.isfinite(floats.to_numpy())
-    names = list(floats.columns)
-    phase3 = run["phase"].to_numpy() == 3
+    phase3 = cols["phase"] == 3
+    dry = scene.engine.m == 0.0
+    skip = _UNDEFINED_AFTER_RELEASE + (_UNDEFINED_DRY_FIRE if dry else ())
+    total = np.zeros(phase3.shape)  # NaN and ±inf survive a sum: one pass over the columns
+    for name, v in cols.items():
+        if v.dtype.kind == "f" and name not in skip:
+            total += v
     for name in _UNDEFINED_AFTER_RELEASE:
-        if name in names:
-            bad[phase3, names.index(name)] = False
-    if scene.engine.m == 0.0:
-        for name in _UNDEFINED_DRY_FIRE:
-            if name in names:
-                bad[:, names.index(name)] = False
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
-        t_bad = float(run["t"].to_numpy()[row])
-        raise TrebuchetInputError(
-            f"{scene.source}: the model breaks down at t = {t_bad:.4g} s ({names[col]} is not "
-            "finite); the scene is outside what the equations of motion can describe")
+        total += np.where(phase3, 0.0, cols[name])
+    if np.isfinite(total).all():
+        return
+    for name, v in cols.items():
+        if v.dtype.kind != "f" or (dry and name in _UNDEFINED_DRY_FIRE):
+            continue
+        bad = ~np.isfinite(v)
+        if name in _UNDEFINED_AFTER_RELEASE:
+            bad &= ~phase3
+        if bad.any():
+            t_bad = float(cols["t"][np.flatnonzero(bad)[0]])
+            raise TrebuchetInputError(
+                f"{scene.source}: the model breaks down at t = {t_bad:.4g} s ({name} is not "
+                "finite); the scene is outside what the equations of motion can describe")
