@@ -1,4 +1,9 @@
-"""A lean explicit Runge–Kutta integrator for small non-stiff systems.
+"""A lean explicit Runge–Kutta integrator for small non-stiff systems, in pure Python.
+
+The simulator's default is the compiled twin of this code (:mod:`trebuchet.model.shot_kernel`,
+the same method and the same steps); this one integrates any Python right-hand side, is
+``simulate(method="python-DOP853")``, and is the reference the compiled one is tested
+against.
 
 The method is DOP853, the explicit 8(5,3) pair of Dormand and Prince with the
 7th-order continuous extension of Hairer, Nørsett and Wanner ("Solving Ordinary

@@ -379,7 +379,10 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
         :data:`ACCURACY`: ``"fast"`` (1e-6), ``"default"`` (1e-10: energy conserved to 1e-9 of
         ΔU), ``"precise"`` (1e-12). ``make bench`` measures what each costs and buys.
     method : str
-        A ``scipy.integrate.solve_ivp`` method; DOP853 (default) suits this non-stiff system.
+        ``"DOP853"`` (default): Dormand–Prince 8(5,3), compiled with numba (the first call after
+        installing compiles for ~30 s; ``make install`` does it). ``"python-DOP853"``: the same
+        steps in pure Python (~3× slower). ``"scipy-<name>"`` or a bare ``solve_ivp`` method
+        name (``"RK45"``, ``"Radau"``, …): ``scipy.integrate.solve_ivp``.
     after_release : float, optional
         Seconds of phase III (beam and counterweight after release) to simulate; default 0.5 s,
         or 1.5 s for a dry fire (which is phase III from the start).
