@@ -14,9 +14,9 @@ unchanged (``lib=math``), so no formula is written twice.
 * :meth:`KernelSolution.columns` evaluates angles, rates and accelerations at many times at
   once (the dense output and the equations of motion, compiled).
 
-Compiled code is cached on disk (numba ``cache=True``); a digest of the three source files is
-kept beside the cache, and a cache built from other sources is discarded on import, since
-numba itself only watches the file of the cached function. The first call in a fresh
+Compiled code is cached on disk (numba ``cache=True``); a digest of the source files it is
+built from is kept beside the cache, and a cache built from other sources is discarded on
+import, since numba itself only watches the file of the cached function. The first call in a fresh
 environment compiles for a few seconds.
 """
 
@@ -36,13 +36,14 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from . import dynamics as dyn
 from . import phase_events as pev
-from .integrator import DENSE_ORDER, ERROR_ORDER, MAX_FACTOR, MIN_FACTOR, SAFETY
+from .integrator import DENSE_ORDER, ERROR_ORDER, MAX_FACTOR, MIN_FACTOR, SAFETY, _crossed
 from .scene import Engine
 
 __all__ = ["JitEngine", "jit_engine", "solve_phase", "KernelSolution", "STATE_SIZE"]
 
 for _name in (*dyn.__all__, *(n for n in pev.__all__ if n[0].islower())):
     register_jitable(getattr(dyn, _name, None) or getattr(pev, _name))
+register_jitable(_crossed)  # scipy's crossing rule, shared with the pure-Python integrator
 
 #: The engine as numba sees it: Engine's fields, ``counterweight_offset`` NaN when hinged.
 JitEngine = namedtuple("JitEngine", "L1 L2 L_CM L3 L4 m_b M m I counterweight_offset "
@@ -269,18 +270,6 @@ def _initial_step(kind, e, g, H, t0, y0, f0, t_bound, rtol, atol):  # noqa: ANN0
 
 
 @numba.njit(cache=True)
-def _crossed(g_old, g_new, direction):  # noqa: ANN001, ANN202
-    """scipy's rule: up if g_old <= 0 <= g_new, down if g_old >= 0 >= g_new."""
-    up = g_old <= 0.0 <= g_new
-    down = g_old >= 0.0 >= g_new
-    if direction > 0:
-        return up
-    if direction < 0:
-        return down
-    return up or down
-
-
-@numba.njit(cache=True)
 def _grown(a, cap):  # noqa: ANN001, ANN202
     """``a`` copied into a longer array of ``cap`` rows (the rest uninitialised)."""
     out = np.empty((cap, *a.shape[1:]))
@@ -390,15 +379,19 @@ def _integrate(kind, e, g, H, t0, t1, y0, rtol, atol, first_step, ev_kind, ev_di
 
 
 @numba.njit(cache=True)
+def _state_at(ts, Y, Hs, Fs, t, y):  # noqa: ANN001, ANN202
+    """The state at time ``t`` into ``y``: step ``k`` spans ``(ts[k], ts[k+1]]`` (a time on a
+    step boundary takes the step that ends there, as scipy's OdeSolution)."""
+    k = min(max(np.searchsorted(ts, t) - 1, 0), Hs.shape[0] - 1)
+    _interp((t - ts[k]) / Hs[k], Y[k], Fs[k], y)
+
+
+@numba.njit(cache=True)
 def _columns(kind, e, g, H, ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
-    """Rows θ, ψ, φ, θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈ of ``out`` at times ``t`` (φ NaN in phase 3); a time
-    on a step boundary takes the step that ends there."""
-    n_steps = Hs.shape[0]
+    """Rows θ, ψ, φ, θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈ of ``out`` at times ``t`` (φ NaN in phase 3)."""
     y = np.empty(Y.shape[1])
     for m in range(t.shape[0]):
-        k = np.searchsorted(ts, t[m]) - 1
-        k = min(max(k, 0), n_steps - 1)
-        _interp((t[m] - ts[k]) / Hs[k], Y[k], Fs[k], y)
+        _state_at(ts, Y, Hs, Fs, t[m], y)
         if kind == 1:
             ph, ph_d, th_dd, ps_dd, ph_dd = dyn.accelerations_phase1(y[0], y[1], y[2], y[3], e,
                                                                      g, H, math)
@@ -419,18 +412,16 @@ def _columns(kind, e, g, H, ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
 @numba.njit(cache=True)
 def _states(ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
     """The state at times ``t`` into the columns of ``out`` (n, m)."""
-    n_steps = Hs.shape[0]
     y = np.empty(Y.shape[1])
     for m in range(t.shape[0]):
-        k = np.searchsorted(ts, t[m]) - 1
-        k = min(max(k, 0), n_steps - 1)
-        _interp((t[m] - ts[k]) / Hs[k], Y[k], Fs[k], y)
+        _state_at(ts, Y, Hs, Fs, t[m], y)
         out[:, m] = y
 
 
 _COMPILED = (_rate, _event, _grown, _stage, _step, _dense, _interp, _interp_point, _event_at,
-             _brent, _locate, _initial_step, _crossed, _integrate, _columns, _states)
-_SOURCES = (Path(dyn.__file__), Path(pev.__file__), Path(__file__))
+             _brent, _locate, _initial_step, _integrate, _state_at, _columns, _states)
+_SOURCES = (Path(dyn.__file__), Path(pev.__file__), Path(_crossed.__code__.co_filename),
+            Path(__file__))
 
 
 def _discard_stale_cache() -> bool:
