@@ -141,6 +141,25 @@ def _kron_transposed(F: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.swapaxes(kr, 1, 2))
 
 
+def _rest_steps(steps: StepModel, has_noise: list[bool], x: np.ndarray, P: np.ndarray) -> int:
+    """Number of leading steps with no process noise and no kick while only the first
+    state is uncertain and set (``x0`` and ``P0`` zero elsewhere, ``P0[0, 0] > 0``) and
+    every transition keeps the first state as it is (``F e1 = e1``): a rest before the
+    trigger, where the filter is a running mean."""
+    k = steps.k
+    P00 = P[:, 0]
+    rest_x = np.all(x[:, 1:] == 0.0) if k > 1 else True
+    rest_P = np.all(P[:, 1:] == 0.0) and np.all(P00 > 0.0)
+    if not (rest_x and rest_P):
+        return 0
+    e1 = np.zeros(k)
+    e1[0] = 1.0
+    keeps = np.all(steps.F[:, :, 0] == e1, axis=1)
+    quiet = keeps & ~np.asarray(has_noise, bool)
+    stop = np.flatnonzero(~quiet)
+    return int(stop[0]) if stop.size else steps.n
+
+
 def batch_kalman_filter(
     z: np.ndarray,
     valid: np.ndarray,
@@ -199,7 +218,30 @@ def batch_kalman_filter(
     if store:
         xps = np.empty((n, B, k))
         Pps = np.empty((n, B, kk))
-    for i in range(n):
+    first = _rest_steps(steps, has_noise, x, P)
+    if first:
+        # a leading rest: only the first state is uncertain and nothing moves it, so the
+        # filter is a running weighted mean, done for all those steps at once
+        p0, m0 = P[:, 0], x[:, 0]
+        v = valid_t[:first]
+        count = np.cumsum(v, axis=0) - v  # valid frames before each step
+        total = np.cumsum(v * zz_t[:first], axis=0) - v * zz_t[:first]
+        p_pred = 1.0 / (1.0 / p0 + count / r2)
+        x_pred = p_pred * (m0 / p0 + total / r2)
+        S_hist[:first] = p_pred + r2
+        nu_hist[:first] = v * (zz_t[:first] - x_pred)
+        if store:
+            xps[:first] = 0.0
+            xps[:first, :, 0] = x_pred
+            Pps[:first] = 0.0
+            Pps[:first, :, 0] = p_pred
+        last = first - 1
+        p_end = 1.0 / (1.0 / p_pred[last] + v[last] / r2)
+        x = np.zeros_like(x)
+        x[:, 0] = p_end * (x_pred[last] / p_pred[last] + v[last] * zz_t[last] / r2)
+        P = np.zeros_like(P)
+        P[:, 0] = p_end
+    for i in range(first, n):
         if moves[i]:
             x = x @ FT[i]
             P = P @ KrT[i]

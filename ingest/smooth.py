@@ -126,7 +126,7 @@ class SmoothSettings:
     local_noise: bool = True
     local_window: float = 4.0
     local_floor: float = 0.01
-    local_scale_decades: float = 1.5
+    local_scale_decades: float = 1.0
 
 
 # ----------------------------------------------------------------------------- input
@@ -620,12 +620,16 @@ def smooth(
                 filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
 
     if shaped:
-        if nearest is None:
+        if nearest is not None:
+            acc = backward_smoother(steps, nearest, valid[free]).x[:, :, 2].T
+        elif scan and rel_s is None:  # no release found: the scan's ML series, same steps
+            acc = sm.x[:, [A + a for a in free], 2].T
+        else:
             r2f = np.array([est[a].r2 for a in free])
             nearest = batch_kalman_filter(Z[free], valid[free], steps,
                                           lam_ml[free] * r2f[:, None], kick[free], r2f,
                                           x0[free], P0[free], store=True)
-        acc = backward_smoother(steps, nearest, valid[free]).x[:, :, 2].T
+            acc = backward_smoother(steps, nearest, valid[free]).x[:, :, 2].T
         lam_use, lam_ml, est, sm = local_noise(steps, acc, est, lam_ml, free)
         if len(free) < A:
             filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)

@@ -129,12 +129,17 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
             Lm = outputs[at[angle, i] + 1]
             a[i] = np.nan_to_num(0.5 * (Lp - Lm))
             b[i] = np.nan_to_num(Lp + Lm - 2.0 * L0)
-        for i in range(3):
-            for j in range(3):
+        for i in range(3):  # the symmetric pairs once, doubled; R_ii is 1 (or 0)
+            r = R[:, i, i][:, None]
+            lin[2 * i] += a[i] * a[i] * r
+            if order == 2:
+                second += 0.5 * r * (b[i] * b[i])
+                bias += 0.5 * b[i]
+            for j in range(i + 1, 3):
                 r = R[:, i, j][:, None]
-                lin[i + j] += a[i] * a[j] * r
-                second += 0.5 * b[i] * b[j] * r * r
-            bias += 0.5 * b[i]
+                lin[i + j] += 2.0 * r * (a[i] * a[j])
+                if order == 2:
+                    second += (r * r) * (b[i] * b[j])
     var = lin.sum(axis=0) + second + bias * bias
     sd = np.sqrt(np.clip(var, 0.0, None))
     sd = np.where(np.isfinite(L0), sd, np.nan)
