@@ -343,6 +343,22 @@ def _locate(ev: Callable, interp: Callable, t0: float, h: float, y0: list[float]
 # ---------------------------------------------------------------------------------------------
 # The driver
 
+def next_step_size(h_abs: float, err: float, rejected: bool) -> float:
+    """Step-size control of DOP853 as scipy's: the next |h| (s) after a step of ``h_abs`` whose
+    error norm is ``err`` (accepted below 1). After an accepted step it grows at most tenfold,
+    not at all right after a rejection; a rejected step shrinks at most fivefold, and by five
+    when the error is not a number (NaN from the right-hand side). Written on floats only, so
+    that the compiled integrator (:mod:`trebuchet.model.shot_kernel`) runs this same code."""
+    if err < 1.0:
+        factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** _ERROR_EXPONENT)
+        if rejected and factor > 1.0:
+            factor = 1.0
+        return h_abs * factor
+    if err == err:
+        return h_abs * max(MIN_FACTOR, SAFETY * err ** _ERROR_EXPONENT)
+    return h_abs * MIN_FACTOR
+
+
 def _initial_step(fun: Callable, t0: float, y0: list[float], f0: Sequence[float],
                   t_bound: float, rtol: float, atol: list[float]) -> float:
     """Hairer's starting step (as scipy's ``select_initial_step``); one right-hand-side call."""
@@ -474,17 +490,11 @@ def solve(fun: Callable[[float, list[float]], Sequence[float]], t_span: tuple[fl
             h_abs = h
             y_new, f_new, err, K = step(fun, t, h, y, f, rtol, atol_l)
             nfev += _NS
+            h_abs = next_step_size(h_abs, err, rejected)
             if err < 1.0:
-                factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR,
-                                                           SAFETY * err ** _ERROR_EXPONENT)
-                if rejected and factor > 1.0:
-                    factor = 1.0
-                h_abs *= factor
                 break
             n_rej += 1
             rejected = True
-            h_abs *= (max(MIN_FACTOR, SAFETY * err ** _ERROR_EXPONENT) if err == err
-                      else MIN_FACTOR)  # a non-finite error (NaN from fun) shrinks the step
         if status < 0:
             break
         i_step = len(ts_old)

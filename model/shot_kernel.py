@@ -36,14 +36,15 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from . import dynamics as dyn
 from . import phase_events as pev
-from .integrator import DENSE_ORDER, ERROR_ORDER, MAX_FACTOR, MIN_FACTOR, SAFETY, _crossed
+from .integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
 from .scene import Engine
 
 __all__ = ["JitEngine", "jit_engine", "solve_phase", "KernelSolution", "STATE_SIZE"]
 
 for _name in (*dyn.__all__, *(n for n in pev.__all__ if n[0].islower())):
     register_jitable(getattr(dyn, _name, None) or getattr(pev, _name))
-register_jitable(_crossed)  # scipy's crossing rule, shared with the pure-Python integrator
+for _f in (_crossed, next_step_size):  # shared with the pure-Python integrator
+    register_jitable(_f)
 
 #: The engine as numba sees it: Engine's fields, ``counterweight_offset`` NaN when hinged.
 JitEngine = namedtuple("JitEngine", "L1 L2 L_CM L3 L4 m_b M m I counterweight_offset "
@@ -58,7 +59,6 @@ _B = np.ascontiguousarray(_dop.B, dtype=np.float64)
 _E3 = np.ascontiguousarray(_dop.E3, dtype=np.float64)
 _E5 = np.ascontiguousarray(_dop.E5, dtype=np.float64)
 _D = np.ascontiguousarray(_dop.D[:_NP - 3, :_NX], dtype=np.float64)
-_EXPONENT = -1.0 / (ERROR_ORDER + 1)
 assert DENSE_ORDER == _NP  # noqa: S101 - the interpolant below has 7 coefficients
 
 
@@ -331,16 +331,11 @@ def _integrate(kind, e, g, H, t0, t1, y0, rtol, atol, first_step, ev_kind, ev_di
             K[0] = f
             err = _step(kind, e, g, H, h, y, K, rtol, atol, y_new, tmp)
             nfev += _NS
+            h_abs = next_step_size(h_abs, err, rejected)
             if err < 1.0:
-                factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR,
-                                                           SAFETY * err ** _EXPONENT)
-                if rejected and factor > 1.0:
-                    factor = 1.0
-                h_abs *= factor
                 break
             n_rej += 1
             rejected = True
-            h_abs *= max(MIN_FACTOR, SAFETY * err ** _EXPONENT) if err == err else MIN_FACTOR
         if status < 0:
             break
         if n_steps == cap:
