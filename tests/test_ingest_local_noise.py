@@ -1,0 +1,149 @@
+"""Local process noise (q per frame from the jerk of a first smoothing) and the exact
+shortcuts it and the speed work rely on: filter series picked from a batch, stacked
+uncertainty propagation."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from trebuchet.ingest.kalman_batch import (
+    StepModel,
+    batch_kalman_filter,
+    polynomial_transition,
+    white_noise_covariance,
+)
+from trebuchet.ingest.noise_tuning import jerk_noise_shape
+from trebuchet.ingest.reconstruct import loads_from_smoothed
+from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.smooth import ANGLES, SmoothSettings, smooth
+from trebuchet.ingest.uncertainty import propagate
+
+
+@pytest.fixture(scope="module")
+def paper_240(horsdal):
+    log, truth = simulated_log(horsdal, 240, 0.3, seed=5, drop_fraction=0.02)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        local = smooth(log, events={"release": truth.attrs["events"]["release"]})
+        one = smooth(log, events={"release": truth.attrs["events"]["release"]},
+                     settings=SmoothSettings(local_noise=False))
+    return log, truth, local, one
+
+
+def test_q_is_low_in_the_trough_and_high_in_the_swing(paper_240):
+    _, truth, local, one = paper_240
+    phase = truth["phase"].to_numpy()
+    t = truth["t"].to_numpy()
+    # the fastest part of the swing: the last fifth of phase 2
+    sling = np.flatnonzero(phase == 2)
+    swing = sling[int(0.8 * sling.size):]
+    trough = np.flatnonzero(phase == 1)
+    for name in ("theta", "psi"):
+        q = local.attrs["noise"][name]["q_frames"]
+        assert q.shape == t.shape and np.all(q > 0)
+        assert np.median(q[swing]) > 5 * np.median(q[trough]), name
+        assert local.attrs["noise"][name]["pieces"] == []
+        # one q: the same at every frame, the q reported
+        q_one = one.attrs["noise"][name]["q_frames"]
+        np.testing.assert_allclose(q_one, one.attrs["noise"][name]["q"], rtol=1e-12)
+
+
+def test_local_noise_narrows_the_trough_and_keeps_the_truth(paper_240, horsdal):
+    _, truth, local, one = paper_240
+    phase = truth["phase"].to_numpy()
+    for name in ANGLES:
+        col = name + "_dd"
+        sd_local = np.nanmedian(local[col + "_sd"].to_numpy()[phase == 1])
+        sd_one = np.nanmedian(one[col + "_sd"].to_numpy()[phase == 1])
+        assert sd_local < sd_one, name
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loads = {key: loads_from_smoothed(est, horsdal) for key, est in
+                 (("local", local), ("one", one))}
+    moving = phase > 0
+    rms = {}
+    for key, res in loads.items():
+        err = (res["F_R_abs"] - truth["F_R_abs"]).to_numpy()[moving]
+        rms[key] = np.sqrt(np.nanmean(err**2))
+        if key == "local":
+            cover = np.nanmean(np.abs(err) <= 2 * res["F_R_abs_sd"].to_numpy()[moving])
+            assert 0.85 <= cover <= 0.99, cover
+    assert rms["local"] < rms["one"]
+
+
+def test_jerk_shape_is_relative_and_ignores_unweighted_steps():
+    n = 200
+    ts = np.arange(n, dtype=float)
+    acc = np.zeros((2, n))
+    acc[0] = 0.5 * ts  # constant jerk: a flat shape
+    acc[1, 100:] = 0.02 * (ts[100:] - 100) ** 2  # jerk rising after step 100
+    weight = np.ones((2, n))
+    weight[:, :5] = 0.0
+    shape = jerk_noise_shape(acc, ts, weight, np.array([5.0, 5.0]), 0.01)
+    np.testing.assert_allclose(shape[0, 10:-10], 1.0, rtol=1e-9)
+    # mean 1 over the weighted steps, raised a little by the floor
+    assert 1.0 <= np.average(shape[1], weights=weight[1]) < 1.01
+    assert shape[1, 190] > 1.0 > shape[1, 50]
+    assert shape[1, 50] == pytest.approx(0.01)  # the floor where there is no jerk
+    # a wild value where the steps carry no weight (its jerks at steps 2 and 3) is ignored
+    wild = acc.copy()
+    wild[:, 2] = 1e6
+    np.testing.assert_array_equal(jerk_noise_shape(wild, ts, weight, np.array([5.0, 5.0]),
+                                                   0.01), shape)
+
+
+def test_series_of_a_batch_equal_their_own_runs():
+    n, k = 120, 3
+    dt = np.ones(n)
+    F = polynomial_transition(k, dt)
+    F[0] = np.eye(k)
+    Q0 = white_noise_covariance(k, dt)
+    Q0[:30] = 0.0  # a rest: the running-mean shortcut
+    steps = StepModel(F, Q0, np.zeros_like(F))
+    rng = np.random.default_rng(2)
+    z = np.cumsum(np.cumsum(rng.normal(size=n))) * 1e-2 + rng.normal(size=n)
+    valid = rng.random(n) > 0.1
+    lams = np.array([1e-4, 1e-2, 1.0])
+    B = lams.size
+    x0 = np.zeros((B, k))
+    x0[:, 0] = z[0]
+    P0 = np.zeros((B, k, k))
+    P0[:, 0, 0] = 100.0
+    many = batch_kalman_filter(np.tile(z, (B, 1)), np.tile(valid, (B, 1)), steps, lams,
+                               np.zeros(B), np.ones(B), x0, P0, store=True)
+    one = batch_kalman_filter(z[None], valid[None], steps, lams[1:2], np.zeros(1),
+                              np.ones(1), x0[:1], P0[:1], store=True)
+    picked = many.series(np.array([1]))
+    for field in ("S", "nu", "xp", "Pp", "gain", "x_end", "P_end"):
+        np.testing.assert_allclose(getattr(picked, field), getattr(one, field), rtol=1e-9,
+                                   atol=1e-12, err_msg=field)
+
+
+def test_stacked_propagation_equals_one_call_per_shift():
+    rng = np.random.default_rng(0)
+    n = 7
+    state = pd.DataFrame({"t": np.arange(n, dtype=float)})
+    for a in ("theta", "psi"):
+        for suf in ("", "_d", "_dd"):
+            state[a + suf] = rng.normal(size=n)
+    cov = {}
+    for a in ("theta", "psi"):
+        m = rng.normal(size=(n, 3, 3))
+        cov[a] = m @ np.swapaxes(m, 1, 2) * 0.01
+
+    def loads(s: pd.DataFrame) -> pd.DataFrame:
+        th, ps = s["theta"].to_numpy(), s["psi_d"].to_numpy()
+        return pd.DataFrame({"y": np.sin(th) * ps ** 2 + s["theta_dd"].to_numpy(),
+                             "w": np.hypot(th, s["psi_dd"].to_numpy())})
+
+    for order in (1, 2):
+        each = propagate(loads, state, cov, order=order)
+        once = propagate(loads, state, cov, order=order, stacked=True)
+        assert each.names == once.names
+        np.testing.assert_allclose(once.value, each.value, rtol=1e-12)
+        np.testing.assert_allclose(once.sd, each.sd, rtol=1e-12)
+        np.testing.assert_allclose(once.by_order, each.by_order, rtol=1e-12, atol=1e-15)
