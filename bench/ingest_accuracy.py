@@ -113,7 +113,7 @@ def one_run(engine: str, fps: int, noise: float, seed: int) -> list[dict]:
     return rows
 
 
-def speed_2s_1000fps(repeats: int = 3) -> float:
+def speed_2s_1000fps(repeats: int = 7) -> float:
     """Best wall time (s) of ``reconstruct`` (read from a table, smoothing, tuning, both
     event searches, loads and their sd) on a 2 s log at 1000 fps of the paper's engine."""
     scene = engines()["paper"]
