@@ -277,7 +277,9 @@ def jerk_noise_shape(acc: np.ndarray, ts: np.ndarray, weight: np.ndarray,
     The white-jerk model's density ``q`` is the variance rate of the jerk; where the motion
     is slow (the trough) its jerk is near zero, in the swing it is large. The local
     ``q`` is taken proportional to the squared jerk ``(Δa/Δt)²`` of a first smoothed
-    acceleration ``acc`` (A, n) (smoother units; ``ts`` (n,) frame times), averaged over a
+    acceleration ``acc`` (A, n) (smoother units; ``ts`` (n,) frame times; for the
+    constant-jerk model too: its squared snap gave larger errors and narrower bands on
+    ``bench/ingest_trade.py``), averaged over a
     Gaussian window of sd ``half_width`` (A,) steps (:func:`windowed_noise`) over the steps
     with ``weight`` (A, n) > 0 (steps with process noise and no event kick, inside the
     angle's track: outside it the smoother extrapolates with no jerk at all), and not

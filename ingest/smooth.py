@@ -529,7 +529,8 @@ def smooth(
         """λ per angle and frame (to use, maximum likelihood), the estimates and the
         smoother of the angles ``free`` with the λ to use: the shape of
         :func:`~trebuchet.ingest.noise_tuning.jerk_noise_shape` from ``acc`` (len(free),
-        n), the acceleration of a smoother at about the maximum-likelihood λ ``lam_ml``
+        n), the acceleration (for ``cj`` too) of a smoother at about the
+        maximum-likelihood λ ``lam_ml``
         (A, n); its scale per angle by maximum likelihood (``r`` kept), with
         ``cutoff_factor`` applied to that scale as to a single λ. The scale grid's step
         divides the cutoff's shift, so the filter of the grid point that shift below the
