@@ -51,6 +51,7 @@ from .kalman_batch import (
     backward_smoother,
     batch_kalman_filter,
     polynomial_transition,
+    smoothed_states,
     white_noise_covariance,
 )
 from .noise_tuning import (
@@ -622,7 +623,7 @@ def smooth(
 
     if shaped:
         if nearest is not None:
-            acc = backward_smoother(steps, nearest, valid[free]).x[:, :, 2].T
+            acc = smoothed_states(steps, nearest, valid[free])[:, :, 2].T
         elif scan and rel_s is None:  # no release found: the scan's ML series, same steps
             acc = sm.x[:, [A + a for a in free], 2].T
         else:
@@ -630,7 +631,7 @@ def smooth(
             nearest = batch_kalman_filter(Z[free], valid[free], steps,
                                           lam_ml[free] * r2f[:, None], kick[free], r2f,
                                           x0[free], P0[free], store=True)
-            acc = backward_smoother(steps, nearest, valid[free]).x[:, :, 2].T
+            acc = smoothed_states(steps, nearest, valid[free])[:, :, 2].T
         lam_use, lam_ml, est, sm = local_noise(steps, acc, est, lam_ml, free)
         if len(free) < A:
             filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)

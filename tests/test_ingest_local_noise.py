@@ -12,8 +12,10 @@ import pytest
 
 from trebuchet.ingest.kalman_batch import (
     StepModel,
+    backward_smoother,
     batch_kalman_filter,
     polynomial_transition,
+    smoothed_states,
     white_noise_covariance,
 )
 from trebuchet.ingest.noise_tuning import jerk_noise_shape
@@ -121,6 +123,10 @@ def test_series_of_a_batch_equal_their_own_runs():
     for field in ("S", "nu", "xp", "Pp", "gain", "x_end", "P_end"):
         np.testing.assert_allclose(getattr(picked, field), getattr(one, field), rtol=1e-9,
                                    atol=1e-12, err_msg=field)
+    # the states-only smoother is the full one's states
+    full = backward_smoother(steps, many, np.tile(valid, (B, 1)))
+    np.testing.assert_allclose(smoothed_states(steps, many, np.tile(valid, (B, 1))), full.x,
+                               rtol=1e-12, atol=1e-12)
 
 
 def test_stacked_propagation_equals_one_call_per_shift():
