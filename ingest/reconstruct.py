@@ -92,7 +92,17 @@ class ReconstructOptions:
     a jump in the last frames of the track (which at 60 fps landed about 6 frames early
     on simulated logs, ``bench/ingest_accuracy.py``). ``resolution_fraction``: the advisory
     speaks where a load's sd exceeds this fraction of its peak. ``model``: the smoother's
-    model ("ca" or "cj"); ``smooth``: its settings (default: the preset's).
+    model ("ca", "cj", or per angle the likelier of both, "select", or their mixture,
+    "average": :mod:`~trebuchet.ingest.model_choice`); ``smooth``: its settings
+    (default: the preset's). Measured on ``bench/ingest_accuracy.py`` (six seeds,
+    projected form; inside / too narrow / too wide of 85–99 %, mean |F_R| RMS error):
+    the default 139 / 7 / 14, 1.83 %; at the maximum-likelihood ``q``
+    (``smooth=SmoothSettings(noise=NoiseSearch(cutoff_factor=1.0))``) "ca" 86 / 0 / 74,
+    1.71 %, "cj" 131 / 29 / 0, 1.79 %, "select" 142 / 2 / 16, 1.68 %, "average" 139 / 0 /
+    21, 1.67 %; "select" with the default ``cutoff_factor`` 59 / 99 / 2 (the likelihood
+    prefers "cj" for most angles, whose bands at 0.8⁸ of its q are far too narrow).
+    "select" and "average" run both smoothers: about 1.5–2× the time (2 s at 1000 fps:
+    over the 0.5 s budget), so they are not the default.
 
     ``preset`` trades time for accuracy (``bench/ingest_trade.py`` measures it):
 

@@ -54,6 +54,7 @@ from .kalman_batch import (
     smoothed_states,
     white_noise_covariance,
 )
+from .model_choice import COMBINATIONS, combined_smoothing, jump_profile
 from .noise_tuning import (
     NoiseEstimate,
     NoiseSearch,
@@ -362,7 +363,10 @@ def smooth(
     ----------
     log : DataFrame with ``t`` (s, strictly increasing) and ``theta``, ``psi``, ``phi``
         (rad; NaN = gap; an all-NaN column = angle not tracked).
-    model : ``"ca"`` constant acceleration (white jerk) or ``"cj"`` constant jerk.
+    model : ``"ca"`` constant acceleration (white jerk) or ``"cj"`` constant jerk;
+        ``"select"`` / ``"average"``: both, per angle the one of larger likelihood or
+        their likelihood-weighted mixture (:mod:`~trebuchet.ingest.model_choice`; the
+        ``cj`` run takes the events the ``ca`` run found; about twice the time).
     q : process-noise spectral density (rad²/s⁵ for ``ca``, rad²/s⁷ for ``cj``), a number
         or ``{angle: number}``; default: maximum likelihood.
     r : measurement-noise sd (rad), number or per angle; default: maximum likelihood.
@@ -377,9 +381,12 @@ def smooth(
     ``X``, ``X_d``, ``X_dd`` and ``X_sd``, ``X_d_sd``, ``X_dd_sd``. ``attrs``:
     ``events`` ({"trigger", "release"}: log time or None), ``event_sources``,
     ``event_sd`` ({"trigger": sd (s) of a detected or given trigger}), ``noise``
-    ({angle: {"q", "r_sd", "q_ml", "loglik", "source", "at_grid_edge", "pieces",
-    "q_frames"}}; with local noise ``q`` is the density where the shape is at its mean
-    and ``q_frames`` (n,) the one used at each frame), ``cov``
+    ({angle: {"q", "r_sd", "q_ml", "loglik", "jump_gain", "jump_count", "source",
+    "at_grid_edge", "pieces", "q_frames"}}; ``jump_gain``: what profiling over the event
+    jumps adds to ``loglik``, ``jump_count`` their effective number,
+    :func:`~trebuchet.ingest.model_choice.jump_profile`; with local noise ``q`` is the
+    density where the shape is at its mean and ``q_frames`` (n,) the one used at each
+    frame), ``cov``
     ({angle: (n, k, k) smoothed covariance of [angle, rate, acceleration(, jerk)] in SI,
     NaN outside the track}), ``model``, ``loglik`` (sum over angles), ``notes``.
 
@@ -389,8 +396,18 @@ def smooth(
         ``q``/``r``/``events``; the message names the column and row.
     """
     settings = settings or SmoothSettings()
+    if model in COMBINATIONS:
+        if q is not None:
+            raise TrebuchetInputError(f"smooth: model {model!r} compares fitted models; "
+                                      "q (whose units depend on the model) cannot be given")
+        first = smooth(log, model="ca", r=r, events=events, backend=backend, settings=settings)
+        found = first.attrs["events"]
+        second = smooth(log, model="cj", r=r, backend=backend, settings=settings,
+                        events={"trigger": found["trigger"], "release": found["release"]})
+        return combined_smoothing({"ca": first, "cj": second}, ANGLES, SUFFIXES, model)
     if model not in MODEL_STATES:
-        raise TrebuchetInputError(f"smooth: model must be 'ca' or 'cj', not {model!r}")
+        raise TrebuchetInputError(f"smooth: model must be 'ca', 'cj', 'select' or 'average', "
+                                  f"not {model!r}")
     if backend not in ("numpy", "filterpy"):
         raise TrebuchetInputError(f"smooth: backend must be 'numpy' or 'filterpy', not {backend!r}")
     k = MODEL_STATES[model]
@@ -637,6 +654,7 @@ def smooth(
             filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
 
     xs, Ps = sm.x[:, :A], sm.P[:, :A]
+    jump_gain, jump_count = jump_profile(steps.G, kick, sm.r[:, :A], sm.N[:, :A])
     if backend == "filterpy":
         from .kalman_filterpy import filterpy_filter_smoother
 
@@ -686,6 +704,8 @@ def smooth(
                 "r_sd": float(np.sqrt(e.r2)),
                 "q_ml": e.lam_ml * e.r2 / tau ** (2 * k - 1),
                 "loglik": e.loglik,
+                "jump_gain": float(jump_gain[a]),
+                "jump_count": float(jump_count[a]),
                 "source": "given" if np.isfinite(q_given[a]) and np.isfinite(r2_given[a])
                 else "maximum likelihood",
                 "at_grid_edge": e.at_edge,
