@@ -18,7 +18,9 @@ truth are both exactly 0 and would count as covered by any band):
 
 ``run(out_dir)`` writes ``ingest_accuracy_runs.csv`` (every run) and
 ``ingest_accuracy.csv`` / ``ingest_accuracy.md`` (mean over seeds) and returns the summary;
-``python bench/ingest_accuracy.py [out_dir]`` prints it.
+``python bench/ingest_accuracy.py [out_dir] [--model M] [--ml-q]`` prints it; ``--model``
+runs the smoother's model ``M`` ("ca" default, "cj", "select", "average") and ``--ml-q``
+its maximum-likelihood ``q`` (``NoiseSearch.cutoff_factor = 1``) instead of the default's.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from trebuchet.ingest.noise_tuning import NoiseSearch
 from trebuchet.ingest.reconstruct import (
     ReconstructOptions,
     loads_from_smoothed,
@@ -39,7 +42,7 @@ from trebuchet.ingest.reconstruct import (
     sling_track_end,
 )
 from trebuchet.ingest.simulated_log import SMALL_ENGINE, simulated_log
-from trebuchet.ingest.smooth import smooth
+from trebuchet.ingest.smooth import SmoothSettings, smooth
 from trebuchet.model.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -85,8 +88,18 @@ def scores(res: pd.DataFrame, truth: pd.DataFrame) -> dict[str, float]:
     return out
 
 
-def one_run(engine: str, fps: int, noise: float, seed: int) -> list[dict]:
-    """Both forms on one simulated log; the time is the default pipeline's."""
+def smoother_options(model: str = "ca", ml_q: bool = False) -> ReconstructOptions:
+    """Reconstruct options of a bench variant: the smoother's ``model`` and, with ``ml_q``,
+    its maximum-likelihood process noise (``cutoff_factor = 1``); else the defaults."""
+    st = SmoothSettings(noise=NoiseSearch(cutoff_factor=1.0)) if ml_q else None
+    return ReconstructOptions(model=model, smooth=st)
+
+
+def one_run(engine: str, fps: int, noise: float, seed: int, model: str = "ca",
+            ml_q: bool = False) -> list[dict]:
+    """Both forms on one simulated log; the time is the default pipeline's (or that of
+    :func:`smoother_options` ``(model, ml_q)``)."""
+    opts = smoother_options(model, ml_q)
     scene = engines()[engine]
     log, truth = simulated_log(scene, fps, noise, seed=seed, drop_fraction=0.02)
     rows = []
@@ -94,7 +107,8 @@ def one_run(engine: str, fps: int, noise: float, seed: int) -> list[dict]:
         warnings.simplefilter("ignore")
         t0 = time.perf_counter()
         end = sling_track_end(log)  # as reconstruct() does
-        est = smooth(log, events=None if end is None else {"release": end[0]})
+        est = smooth(log, model=opts.model, events=None if end is None else {"release": end[0]},
+                     settings=opts.smooth)
         smoothed = time.perf_counter() - t0
         for form in ("projected", "direct"):
             t1 = time.perf_counter()
@@ -113,7 +127,7 @@ def one_run(engine: str, fps: int, noise: float, seed: int) -> list[dict]:
     return rows
 
 
-def speed_2s_1000fps(repeats: int = 7) -> float:
+def speed_2s_1000fps(repeats: int = 7, options: ReconstructOptions | None = None) -> float:
     """Best wall time (s) of ``reconstruct`` (read from a table, smoothing, tuning, both
     event searches, loads and their sd) on a 2 s log at 1000 fps of the paper's engine."""
     scene = engines()["paper"]
@@ -125,7 +139,7 @@ def speed_2s_1000fps(repeats: int = 7) -> float:
         warnings.simplefilter("ignore")
         for _ in range(repeats):
             t0 = time.perf_counter()
-            reconstruct(log, scene)
+            reconstruct(log, scene, options=options)
             best = min(best, time.perf_counter() - t0)
     return float(best)
 
@@ -148,12 +162,14 @@ def summary(runs: pd.DataFrame) -> pd.DataFrame:
     return table.round(2)
 
 
-def run(out_dir: str | Path | None = None, workers: int = 2) -> pd.DataFrame:
-    """The summary table (see the module doc); writes the CSVs and Markdown to ``out_dir``."""
-    cells = [(e, f, n, s) for e in engines() for f in FRAME_RATES for n in NOISE_DEG
-             for s in SEEDS]
+def run(out_dir: str | Path | None = None, workers: int = 2, model: str = "ca",
+        ml_q: bool = False) -> pd.DataFrame:
+    """The summary table (see the module doc); writes the CSVs and Markdown to ``out_dir``.
+    ``model``, ``ml_q``: the smoother variant (:func:`smoother_options`)."""
+    cells = [(e, f, n, s, model, ml_q) for e in engines() for f in FRAME_RATES
+             for n in NOISE_DEG for s in SEEDS]
     # timed first: right after the pool has kept both cores busy it read 0.1-0.2 s slower
-    speed = speed_2s_1000fps()
+    speed = speed_2s_1000fps(options=smoother_options(model, ml_q))
     t0 = time.perf_counter()
     if workers > 1:
         with ProcessPoolExecutor(workers) as pool:
@@ -170,6 +186,9 @@ def run(out_dir: str | Path | None = None, workers: int = 2) -> pd.DataFrame:
              "|F_S| (FS_*) is scored only while the sling holds the projectile (phases 1–2); "
              "until this note it also counted the frames after the release, where load and "
              "truth are both 0 (23–29 % of the shot's frames, all counted inside the band)"]
+    if model != "ca" or ml_q:
+        notes.insert(0, f"smoother variant: model {model!r}"
+                     + (", maximum-likelihood q (cutoff_factor 1)" if ml_q else ""))
     counts = coverage_cells(table)
     notes.append(f"projected form, cells × loads with coverage in {COVER_RANGE[0]:g}–"
                  f"{COVER_RANGE[1]:g} %: {counts['inside']} of {sum(counts.values())} "
@@ -204,5 +223,14 @@ def markdown(table: pd.DataFrame) -> str:
 
 
 if __name__ == "__main__":
-    result = run(sys.argv[1] if len(sys.argv) > 1 else None)
+    args = sys.argv[1:]
+    variant = {"model": "ca", "ml_q": False}
+    if "--ml-q" in args:
+        args.remove("--ml-q")
+        variant["ml_q"] = True
+    if "--model" in args:
+        i = args.index("--model")
+        variant["model"] = args[i + 1]
+        del args[i:i + 2]
+    result = run(args[0] if args else None, **variant)
     print(markdown(result))
