@@ -5,6 +5,9 @@ frames, two seeds), ``reconstruct`` runs with:
 
 - the presets ``fast``, ``default``, ``precise`` (:class:`ReconstructOptions`);
 - the constant-jerk smoother (``model="cj"``) instead of constant acceleration;
+- at the maximum-likelihood ``q`` (``NoiseSearch.cutoff_factor = 1``): ``"cj"`` and the
+  per-angle choice of the likelier model (``model="select"``,
+  :mod:`~trebuchet.ingest.model_choice`);
 - the process noise ``q`` fixed at 10× and 0.1× the maximum-likelihood one of the default
   run (per angle; the measurement noise fixed at its estimate), i.e. the tuning skipped and
   off by a decade either way.
@@ -17,6 +20,7 @@ time).
 
 from __future__ import annotations
 
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -25,12 +29,15 @@ import numpy as np
 import pandas as pd
 
 from bench.ingest_accuracy import engines, scores
+from trebuchet.ingest.noise_tuning import NoiseSearch
 from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
 from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.smooth import SmoothSettings
 
+ROOT_RESULTS = Path(__file__).resolve().parent / "results"
 CELLS = ((240, 0.3), (120, 1.0))
 SEEDS = (0, 1)
-SETTINGS = ("fast", "default", "precise", "cj", "q x10", "q x0.1")
+SETTINGS = ("fast", "default", "precise", "cj", "cj ML q", "select ML q", "q x10", "q x0.1")
 
 
 def _one(log: pd.DataFrame, truth: pd.DataFrame, setting: str, ml: dict) -> dict:
@@ -40,6 +47,9 @@ def _one(log: pd.DataFrame, truth: pd.DataFrame, setting: str, ml: dict) -> dict
         kw["options"] = ReconstructOptions(preset=setting)
     elif setting == "cj":
         kw["options"] = ReconstructOptions(model="cj")
+    elif setting.endswith("ML q"):
+        kw["options"] = ReconstructOptions(
+            model=setting.split()[0], smooth=SmoothSettings(noise=NoiseSearch(cutoff_factor=1.0)))
     else:
         factor = 10.0 if setting == "q x10" else 0.1
         kw["q"] = {a: factor * v["q"] for a, v in ml.items()}
@@ -76,13 +86,29 @@ def run(out_dir: str | Path | None = None) -> pd.DataFrame:
         "paper engine, simulated logs, 2 seeds; errors % of the true peak, cover % of the "
         "shot's frames inside ±2 sd, seconds: best reconstruct() wall time",
         "q x10 / q x0.1: q fixed at 10x / 0.1x the maximum-likelihood q (no tuning)",
+        "cj / select ML q: the maximum-likelihood q (cutoff_factor 1); select: per angle "
+        "the likelier of ca and cj (event jumps profiled out, AIC)",
     ]
     if out_dir is not None:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         table.to_csv(out / "ingest_trade.csv", index=False)
+        (out / "ingest_trade.md").write_text(markdown(table))
         _plot(table, out / "ingest_trade.png")
     return table
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """The trade table as Markdown with its notes."""
+    lines = ["Ingest: smoother model, noise tuning and presets against force error, band "
+             "coverage and time.", ""]
+    lines += [f"- {n}" for n in table.attrs.get("notes", [])]
+    cols = list(table.columns)
+    lines += ["", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for row in table.itertuples(index=False):
+        lines.append("| " + " | ".join(f"{v:.4g}" if isinstance(v, float) else str(v)
+                                       for v in row) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def _plot(table: pd.DataFrame, path: Path) -> None:
@@ -108,4 +134,4 @@ def _plot(table: pd.DataFrame, path: Path) -> None:
 
 
 if __name__ == "__main__":
-    print(run())
+    print(markdown(run(ROOT_RESULTS if "--write" in sys.argv else None)))
