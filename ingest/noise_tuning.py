@@ -252,10 +252,14 @@ def piecewise_noise(
 
 
 def windowed_noise(est: np.ndarray, weight: np.ndarray, half_width: np.ndarray,
-                   floor: np.ndarray) -> np.ndarray:
+                   floor: np.ndarray, linear: bool = False) -> np.ndarray:
     """Local process noise (B, n): the per-step estimates ``est`` (B, n) averaged with
     weights ``weight`` (B, n) over a Gaussian window of sd ``half_width`` (B,) steps, and
-    not below ``floor`` (B,). Where the window holds no weight, the floor."""
+    not below ``floor`` (B,). Where the window holds no weight, the floor. With ``linear``
+    a local-linear fit instead of the local mean (Fan & Gijbels 1996, §3.2.5: the same in
+    the interior of evenly weighted steps, but free of the one-sided window's bias at a
+    track's ends and at gaps: a trend rising to the end is followed, not averaged down);
+    where the window cannot fix a slope (one weighted step), the local mean."""
     B, n = est.shape
     out = np.empty_like(est)
     for b in range(B):
@@ -266,12 +270,23 @@ def windowed_noise(est: np.ndarray, weight: np.ndarray, half_width: np.ndarray,
         den = np.convolve(weight[b], kern, mode="same")
         with np.errstate(invalid="ignore", divide="ignore"):
             local = np.where(den > 1e-9, num / den, floor[b])
+        if linear:
+            off = np.arange(-span, span + 1, dtype=float)
+            k1, k2 = -off * kern, off**2 * kern
+            s1 = np.convolve(weight[b], k1, mode="same")
+            s2 = np.convolve(weight[b], k2, mode="same")
+            t1 = np.convolve(est[b] * weight[b], k1, mode="same")
+            det = den * s2 - s1**2
+            with np.errstate(invalid="ignore", divide="ignore"):
+                lin = (s2 * num - s1 * t1) / det
+            ok = (den > 1e-9) & (det > 1e-9 * np.maximum(den * s2, 1e-300)) & np.isfinite(lin)
+            local = np.where(ok, lin, local)
         out[b] = np.maximum(local, floor[b])
     return out
 
 
 def jerk_noise_shape(acc: np.ndarray, ts: np.ndarray, weight: np.ndarray,
-                     half_width: np.ndarray, floor: float) -> np.ndarray:
+                     half_width: np.ndarray, floor: float, linear: bool = False) -> np.ndarray:
     """Relative process noise per angle and step (A, n), mean 1 over the weighted steps.
 
     The white-jerk model's density ``q`` is the variance rate of the jerk; where the motion
@@ -283,14 +298,15 @@ def jerk_noise_shape(acc: np.ndarray, ts: np.ndarray, weight: np.ndarray,
     Gaussian window of sd ``half_width`` (A,) steps (:func:`windowed_noise`) over the steps
     with ``weight`` (A, n) > 0 (steps with process noise and no event kick, inside the
     angle's track: outside it the smoother extrapolates with no jerk at all), and not
-    below ``floor`` times its mean. The scale is left to maximum likelihood
+    below ``floor`` times its mean; ``linear``: the window's local-linear fit
+    (:func:`windowed_noise`). The scale is left to maximum likelihood
     (:func:`maximum_likelihood_noise` with ``shape``).
     """
     A, n = acc.shape
     dt = np.diff(ts)
     jerk2 = np.zeros((A, n))
     jerk2[:, 1:] = (np.diff(acc, axis=1) / np.maximum(dt, 1e-12)) ** 2
-    local = windowed_noise(jerk2, weight, half_width, np.zeros(A))
+    local = windowed_noise(jerk2, weight, half_width, np.zeros(A), linear)
     w = weight + 1e-300
     level = np.array([np.average(local[a], weights=w[a]) for a in range(A)])
     level = np.where(level > 0, level, 1.0)

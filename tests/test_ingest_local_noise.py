@@ -153,3 +153,24 @@ def test_stacked_propagation_equals_one_call_per_shift():
         np.testing.assert_allclose(once.value, each.value, rtol=1e-12)
         np.testing.assert_allclose(once.sd, each.sd, rtol=1e-12)
         np.testing.assert_allclose(once.by_order, each.by_order, rtol=1e-12, atol=1e-15)
+
+
+def test_local_linear_window_follows_a_trend_to_the_track_end():
+    """The local mean of a one-sided window averages a rising trend down at the track's
+    end; the local-linear fit reproduces a linear trend exactly, also there, and in the
+    interior of evenly weighted steps it equals the local mean for a constant."""
+    from trebuchet.ingest.noise_tuning import windowed_noise
+
+    n = 200
+    t = np.arange(n, dtype=float)
+    est = np.vstack([1.0 + 0.05 * t, np.full(n, 3.0)])
+    weight = np.ones((2, n))
+    weight[:, 150:] = 0.0  # the track ends at step 149
+    half = np.array([8.0, 8.0])
+    floor = np.zeros(2)
+    mean = windowed_noise(est, weight, half, floor)
+    lin = windowed_noise(est, weight, half, floor, linear=True)
+    np.testing.assert_allclose(lin[0, :150], est[0, :150], rtol=1e-9)
+    assert mean[0, 149] < est[0, 149] - 0.2
+    np.testing.assert_allclose(lin[1, :150], 3.0, rtol=1e-9)
+    np.testing.assert_allclose(mean[1, 40:110], lin[1, 40:110], rtol=1e-12)
