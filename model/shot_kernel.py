@@ -39,7 +39,8 @@ from . import phase_events as pev
 from .integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
 from .scene import Engine
 
-__all__ = ["JitEngine", "jit_engine", "solve_phase", "KernelSolution", "STATE_SIZE"]
+__all__ = ["JitEngine", "jit_engine", "solve_phase", "KernelSolution", "STATE_SIZE",
+           "discard_stale_cache"]
 
 for _name in (*dyn.__all__, *(n for n in pev.__all__ if n[0].islower())):
     register_jitable(getattr(dyn, _name, None) or getattr(pev, _name))
@@ -419,26 +420,32 @@ _SOURCES = (Path(dyn.__file__), Path(pev.__file__), Path(_crossed.__code__.co_fi
             Path(__file__))
 
 
-def _discard_stale_cache() -> bool:
+def discard_stale_cache(compiled: tuple, sources: tuple[Path, ...], name: str) -> bool:
     """Numba re-validates a cached function against its own file only; the formulas it calls
-    live in other files. Keep a digest of all three beside the cache and empty the cache's
-    index when it differs. True when the compiled code must be built (again)."""
+    live in other files. Keep a digest of all ``sources`` beside the cache (in a file named
+    after ``name``) and empty the cache index of every function of ``compiled`` when it
+    differs. True when the compiled code must be built (again)."""
     try:
-        cache_dir = Path(_rate._cache._cache_path)  # numba's cache locator
+        cache_dir = Path(compiled[0]._cache._cache_path)  # numba's cache locator
     except AttributeError:  # pragma: no cover - caching off or numba internals moved
         return True
-    digest = hashlib.sha256(b"".join(p.read_bytes() for p in _SOURCES)).hexdigest()
-    stamp = cache_dir / "trebuchet_shot_kernel.sources"
+    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
+    stamp = cache_dir / f"{name}.sources"
     try:
         if stamp.is_file() and stamp.read_text() == digest:
             return False
-        for fn in _COMPILED:
+        for fn in compiled:
             fn._cache.flush()
         cache_dir.mkdir(parents=True, exist_ok=True)
         stamp.write_text(digest)
     except OSError:  # pragma: no cover - a read-only cache: numba falls back or recompiles
         pass
     return True
+
+
+def _discard_stale_cache() -> bool:
+    """:func:`discard_stale_cache` of this module's compiled functions."""
+    return discard_stale_cache(_COMPILED, _SOURCES, "trebuchet_shot_kernel")
 
 
 _cold = _discard_stale_cache()
