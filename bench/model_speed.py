@@ -7,6 +7,10 @@ on all alike:
   numba, rtol 1e-10, atol 1e-12, outputs every 1 ms plus the events, every force of the
   contract);
 * ``integrate``: the integration alone (:func:`trebuchet.model.simulate.integrate`);
+* ``load columns``: every load on the shot's 1500 output rows from its angles
+  (:func:`trebuchet.model.forces.load_columns`, compiled :func:`~trebuchet.model.forces.row_loads`);
+* ``simulate, back to back``: ``simulate`` called ``repeats`` times in a row, as a sweep does
+  (the interleaved lines above run each call after the others, with colder caches);
 * ``simulate (python-DOP853)``: the same steps taken by the pure-Python DOP853 of
   :mod:`trebuchet.model.integrator` (what the default was before the compiled kernel);
 * ``simulate (scipy solve_ivp)``: the same simulator with ``method="scipy-DOP853"``;
@@ -33,8 +37,9 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
+from trebuchet.model.forces import load_columns
 from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import DEFAULT_RTOL, integrate, simulate
+from trebuchet.model.simulate import DEFAULT_RTOL, default_times, integrate, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "data_samples" / "horsdal_large.toml"
@@ -235,9 +240,13 @@ def run(out_dir: str | Path | None = None, repeats: int = REPEATS) -> pd.DataFra
     """Time the four lines (interleaved, ``repeats`` each after a warm-up) and return the
     table; the accuracy of the baseline against ``simulate`` goes in ``attrs['notes']``."""
     scene = Scene.from_toml(SCENE)
+    traj = integrate(scene)
+    angles = traj.angle_columns(default_times(traj))
     cases = {
         "simulate (default: compiled DOP853)": lambda: simulate(scene),
         "integrate only (compiled DOP853)": lambda: integrate(scene),
+        "load columns only (compiled row_loads, 1500 rows)": lambda: load_columns(
+            angles, scene, release_state=traj.release_state),
         "simulate with method='python-DOP853' (same steps, pure Python)": lambda: simulate(
             scene, method="python-DOP853"),
         "simulate with method='scipy-DOP853' (solve_ivp)": lambda: simulate(
@@ -261,6 +270,13 @@ def run(out_dir: str | Path | None = None, repeats: int = REPEATS) -> pd.DataFra
             times[name].append(1e3 * (time.perf_counter() - t0))
         if (i + 1) % 10 == 0:
             print(f"  model_speed: {i + 1}/{repeats} repeats", file=sys.stderr, flush=True)
+    back_to_back = "simulate, back to back (as in a sweep)"
+    times[back_to_back] = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        simulate(scene)
+        times[back_to_back].append(1e3 * (time.perf_counter() - t0))
+    nfev[back_to_back] = nfev["simulate (default: compiled DOP853)"]
     base = float(np.median(times["plain solve_ivp implementation (baseline)"]))
     rows = []
     for name, ts in times.items():
