@@ -13,6 +13,7 @@ when any of the files it is built from changes.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numba
@@ -48,7 +49,7 @@ def _load_rows(phase, th, th_d, th_dd, ps, ps_d, ps_dd, ph, ph_d, ph_dd, e, g, H
 
 
 _SOURCES = tuple(Path(m.__file__) for m in (dyn, fo, kin)) + (Path(__file__),)
-discard_stale_cache((_load_rows,), _SOURCES, "trebuchet_loads_kernel")
+_cold = discard_stale_cache((_load_rows,), _SOURCES, "trebuchet_loads_kernel")
 
 
 def load_block(given: dict[str, np.ndarray], scene: Scene, projected: bool,
@@ -56,6 +57,11 @@ def load_block(given: dict[str, np.ndarray], scene: Scene, projected: bool,
     """:func:`~trebuchet.model.forces.row_loads` on every row of the columns ``given``
     (``phase`` and the nine angle columns of :data:`~trebuchet.model.forces.ANGLE_COLUMNS`),
     as a C-ordered block of shape ``(len(ROW_COLUMNS), n)``: one row per column."""
+    global _cold
+    if _cold:  # the first call of a fresh installation compiles (~5 s): say so
+        _cold = False
+        print("trebuchet: compiling the load formulas (once per installation, about 5 s)...",
+              file=sys.stderr, flush=True)
     phase = np.ascontiguousarray(given["phase"], dtype=np.int64)
     angles = [np.ascontiguousarray(given[c], dtype=np.float64)
               for cols in fo.ANGLE_COLUMNS for c in cols]

@@ -452,11 +452,11 @@ _cold = _discard_stale_cache()
 
 
 def _say_compiling() -> None:
-    """One line on stderr before the first compilation of a fresh installation (~30 s)."""
+    """One line on stderr before the first compilation of a fresh installation (~15 s)."""
     global _cold
     if _cold:
         _cold = False
-        print("trebuchet: compiling the simulator (once per installation, about 30 s)...",
+        print("trebuchet: compiling the simulator (once per installation, about 15 s)...",
               file=sys.stderr, flush=True)
 
 

@@ -380,7 +380,7 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
         ΔU), ``"precise"`` (1e-12). ``make bench`` measures what each costs and buys.
     method : str
         ``"DOP853"`` (default): Dormand–Prince 8(5,3), compiled with numba (the first call after
-        installing compiles for ~30 s; ``make install`` does it). ``"python-DOP853"``: the same
+        installing compiles for ~20 s; ``make install`` does it). ``"python-DOP853"``: the same
         steps in pure Python (~3× slower). ``"scipy-<name>"`` or a bare ``solve_ivp`` method
         name (``"RK45"``, ``"Radau"``, …): ``scipy.integrate.solve_ivp``.
     after_release : float, optional
