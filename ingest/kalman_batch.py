@@ -345,3 +345,27 @@ def smoothed_states(steps: StepModel, filt: FilterResult, valid: np.ndarray) -> 
         r[:, 0, 0] += nu_S[i]
         rs[i] = r[:, 0]
     return filt.xp + np.einsum("nbij,nbj->nbi", filt.Pp, rs)
+
+
+def refiltered(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.ndarray,
+               x0: np.ndarray) -> FilterResult:
+    """``filt`` with its means re-run on other measurements ``z`` (B, n): the gains, the
+    covariances and the innovation variances of a linear Kalman filter do not depend on
+    the data, so the filter of ``z`` keeps them and only the means (``xp``, ``nu``,
+    ``x_end``) change. ``valid`` must be the mask ``filt`` ran with (its gains are zero at
+    the gaps); ``x0`` (B, k) the prior mean. For :func:`smoothed_states` of ``z``."""
+    n, B, k = filt.xp.shape
+    FT = np.ascontiguousarray(np.swapaxes(steps.F, 1, 2))
+    ok = np.asarray(valid, bool).T
+    zz = np.where(ok, np.asarray(z, float).T, 0.0)
+    gain = filt.gain
+    x = np.array(x0, dtype=float)
+    xp = np.empty((n, B, k))
+    nu = np.zeros((n, B))
+    for i in range(n):
+        x = x @ FT[i]
+        xp[i] = x
+        v = (zz[i] - x[:, 0]) * ok[i]
+        nu[i] = v
+        x = x + gain[i] * v[:, None]
+    return FilterResult(filt.S, nu, xp, filt.Pp, gain, x, filt.P_end)

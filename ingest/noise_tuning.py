@@ -311,3 +311,34 @@ def jerk_noise_shape(acc: np.ndarray, ts: np.ndarray, weight: np.ndarray,
     level = np.array([np.average(local[a], weights=w[a]) for a in range(A)])
     level = np.where(level > 0, level, 1.0)
     return np.maximum(local / level[:, None], floor)
+
+
+def track_end_common_noise(shape: np.ndarray, weight: np.ndarray, ends: np.ndarray,
+                           last: int, span: np.ndarray) -> np.ndarray:
+    """Local noise shapes (B, n) of angles of one mechanism with, at the end of a track that
+    stops while others go on, the angles' common shape where it is larger.
+
+    An angle's own first smoothing cannot show a change of its jerk in the last frames of
+    its track: there it is a one-sided estimate that lags, and nothing after the end pulls
+    it along (the sling's track ends at the release, just as the sling whips round). The
+    angles are degrees of freedom of one mechanism, coupled through its mass matrix, so a
+    fast change shows in the jerk of the angles whose tracks go on. Over the last ``span``
+    (B,) steps up to ``ends`` (B,) (an angle's last valid step), for a track ending at
+    least three steps before ``last`` (the last valid step of any angle), the shape is the
+    larger of its own and the mean of all angles' shapes that have ``weight`` > 0 at that
+    step (each of mean 1 over its own weighted steps, as :func:`jerk_noise_shape` gives
+    them). Other tracks and steps are unchanged."""
+    B, n = shape.shape
+    out = shape.copy()
+    if B < 2:
+        return out
+    on = weight > 0
+    count = on.sum(axis=0)
+    common = np.where(count > 0, (shape * on).sum(axis=0) / np.maximum(count, 1), 0.0)
+    for b in range(B):
+        end = int(ends[b])
+        if last - end < 3 or not span[b] > 0:
+            continue
+        lo = max(int(np.floor(end - span[b])), 0)
+        out[b, lo:end + 1] = np.maximum(out[b, lo:end + 1], common[lo:end + 1])
+    return out

@@ -64,7 +64,7 @@ EVENT_KEYS = ("trigger", "lift_off", "release")
 PRESETS: dict[str, tuple[SmoothSettings, int]] = {
     "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0), local_noise=False), 1),
     "default": (SmoothSettings(), 2),
-    "precise": (SmoothSettings(local_window=2.0), 2),
+    "precise": (SmoothSettings(noise=NoiseSearch(log10_step=0.25)), 2),
 }
 
 
@@ -96,7 +96,10 @@ class ReconstructOptions:
     "average": :mod:`~trebuchet.ingest.model_choice`); ``smooth``: its settings
     (default: the preset's). Measured on ``bench/ingest_accuracy.py`` (six seeds,
     projected form; inside / too narrow / too wide of 85–99 %, mean |F_R| RMS error):
-    the default 139 / 7 / 14, 1.83 %; at the maximum-likelihood ``q``
+    the default 151 / 1 / 8, 1.62 % (:class:`~trebuchet.ingest.smooth.SmoothSettings`
+    gives the steps to it); with the default smoother settings before that (local noise
+    over a window of 4 time constants, no bias term; 139 / 7 / 14, 1.83 %) and at the
+    maximum-likelihood ``q``
     (``smooth=SmoothSettings(noise=NoiseSearch(cutoff_factor=1.0))``) "ca" 86 / 0 / 74,
     1.71 %, "cj" 131 / 29 / 0, 1.79 %, "select" 142 / 2 / 16, 1.68 %, "average" 139 / 0 /
     21, 1.67 %; "select" with the default ``cutoff_factor`` 59 / 99 / 2 (the likelihood
@@ -111,15 +114,15 @@ class ReconstructOptions:
       propagation (forward differences: 9 load evaluations instead of 18, no
       second-order variance or bias term);
     - ``"default"``: grid step ½ decade, the process noise shaped frame by frame by the
-      jerk of a first smoothing over a window of 4 time constants
-      (``SmoothSettings.local_noise``), second-order propagation (central differences,
-      variance and bias);
-    - ``"precise"``: as the default with a window of 2 time constants: the bands follow
-      the swing more closely (``bench/ingest_accuracy.py`` with six seeds: 149 of 160
-      cells inside 85–99 % against 139, |F_R| RMS error 1.62 % of the peak against
-      1.83 %), but where the data cannot show a fast change (the sling's last whip before
-      the release, where its track ends) they are narrower and miss more: on the demo
-      sample the projectile's energy at the release 3.5 sd off (default 2.8 sd).
+      jerk of a first smoothing over a window of 2 time constants (local-linear; at the
+      end of the sling's track at least the angles' common shape), the smoothing bias in
+      the bands (``SmoothSettings.local_noise``, ``bias_band``), second-order
+      propagation (central differences, variance and bias);
+    - ``"precise"``: as the default with a noise grid of ¼ decade: |F_R| RMS error of
+      the three target cells 0.58 / 1.15 / 2.14 % of the peak against 0.60 / 1.17 /
+      2.16 % (``bench/ingest_accuracy.py``, six seeds), but 146 of 160 cells inside
+      85–99 % against 151 (4 too narrow, 10 too wide). Until the bias term and the
+      common track end (default since) it was the window of 2 time constants.
 
     An explicit ``smooth`` replaces the preset's smoother settings.
     """

@@ -13,6 +13,8 @@ time step (filterpy's ``Q_continuous_white_noise``), and:
   may be given instead; by default ``q`` then varies frame by frame with the squared jerk
   of that first smoothing (slow trough, fast swing), its scale again by maximum
   likelihood (``SmoothSettings.local_noise``);
+- the standard deviations include the smoothing's bias, estimated by smoothing the
+  smoothed angle once more (``SmoothSettings.bias_band``);
 - trigger and release are found in the data (:mod:`~trebuchet.ingest.events`) unless
   given;
 - gaps (NaN) are predicted through; outside an angle's track (before its first or after
@@ -51,6 +53,7 @@ from .kalman_batch import (
     backward_smoother,
     batch_kalman_filter,
     polynomial_transition,
+    refiltered,
     smoothed_states,
     white_noise_covariance,
 )
@@ -62,6 +65,7 @@ from .noise_tuning import (
     lambda_grid,
     maximum_likelihood_noise,
     piecewise_noise,
+    track_end_common_noise,
 )
 
 ANGLES: tuple[str, ...] = ("theta", "psi", "phi")
@@ -104,23 +108,36 @@ class SmoothSettings:
     within each angle's track, and not below ``local_floor`` times its mean
     (:func:`~trebuchet.ingest.noise_tuning.jerk_noise_shape`); one scale per angle by
     maximum likelihood (``r`` kept) on a grid of ``±local_scale_decades``,
-    ``cutoff_factor`` applied to that scale. Same bench with six seeds per cell instead
-    of two (inside / too narrow / too wide): one ``q`` 132 / 10 / 18, mean |F_R| RMS
-    error 2.15 %; local noise with a window of 4 time constants (default) 139 / 7 / 14,
-    1.83 %; of 2 (preset ``precise``) 149 / 6 / 5, 1.62 %; 3 pieces as above 137 / 22 /
-    1, 1.97 %. The window of 2 follows the swing more closely but on the demo sample
-    (``horsdal_240fps.csv``) its band misses the projectile's energy at the release
-    by 3.5 sd (the sling's track ends there and no smoother here sees its last whip;
-    one ``q``: 2.5 sd, window 4: 2.8 sd). Local noise costs about 50 ms on 2 s at
-    1000 fps; a floor of 0.003–0.03 gave the same cells.
-    ``local_linear``: the window's average is a local-linear fit, free of the one-sided
-    window's bias at the ends of a track
-    (:func:`~trebuchet.ingest.noise_tuning.windowed_noise`). Same bench: window 4
-    142 / 7 / 11, 1.82 %; window 2 150 / 5 / 5, 1.62 %; but on the demo sample the
-    projectile's energy at the release lands 3.2 sd off with window 4 (and the heavier
-    counterweight's F_R_perp peak 4.95 sd instead of > 5), so it is off by default.
-    Choosing the window per angle by the likelihood (2, 4 or 8 time constants) picked 2
-    on every angle of the bench (149 / 6 / 5, as ``precise``).
+    ``cutoff_factor`` applied to that scale. ``local_linear``: the window's average is a
+    local-linear fit, free of the one-sided window's bias at the ends of a track
+    (:func:`~trebuchet.ingest.noise_tuning.windowed_noise`). ``local_end_common``: over
+    the last this many window widths of a track that ends while the others go on (the
+    sling's, at the release), the shape is at least the mean shape of all angles
+    (:func:`~trebuchet.ingest.noise_tuning.track_end_common_noise`; 0: off): an angle's
+    own first pass cannot show its jerk rising in the last frames of its track, the
+    angles whose tracks go on do. ``bias_band``: the smoothing bias is added to the
+    covariance, ``P + b bᵀ`` (mean squared error = variance + bias²), ``b`` estimated by
+    running the same smoother (same gains) on its own smoothed angle: ``M x̂ − x̂`` and its
+    derivatives (Tukey's twicing residual; first order in the bias), one more
+    filter pass.
+    Measured on ``bench/ingest_accuracy.py`` with six seeds per cell (inside / too narrow /
+    too wide of 85–99 %, mean |F_R| RMS error): one ``q`` 132 / 10 / 18, 2.15 %; 3
+    pieces as above 137 / 22 / 1, 1.97 %; local noise, window 4, local mean (the
+    default until this note) 139 / 7 / 14, 1.83 %; window 2 149 / 6 / 5, 1.62 %; window 2
+    local-linear 150 / 5 / 5, 1.62 %; and with ``local_end_common = 2`` 150 / 6 / 4,
+    1.62 %; and with ``bias_band`` (the default) 151 / 1 / 8, 1.62 %. On the demo sample
+    (``horsdal_240fps.csv``) the projectile's energy at the release lands 2.8 sd off
+    with window 4, 3.5 sd with window 2, 3.2 sd local-linear (its fit carries the
+    sling's falling jerk on to the floor at the track's end: q there ≈ 0), 2.0 sd with
+    the track end's common shape and bias. Dropped: one common shape for all angles at
+    every frame (window 4: 136 / 10 / 14, 1.94 %; window 2 local-linear 142 / 11 / 7,
+    1.78 %); windows that stop at the event kicks (local-linear window 2: 148 / 11 / 1,
+    1.61 %, with the common track end 147 / 11 / 2); the local-linear fit kept above the
+    local mean 147 / 2 / 11; the bias's noise part taken off by a Monte Carlo run of the
+    smoother on simulated noise 150 / 2 / 8; a noise grid of ¼ decade 146 / 4 / 10,
+    1.62 %. Choosing the window per angle by the likelihood (2, 4 or 8 time constants)
+    picked 2 on every angle. Local noise costs about 50 ms on 2 s at 1000 fps, the bias
+    band about 10 ms; a floor of 0.003–0.03 gave the same cells.
     """
 
     noise: NoiseSearch = field(default_factory=NoiseSearch)
@@ -134,10 +151,12 @@ class SmoothSettings:
     piece_min_frames: int = 20
     release_piece_max_decades: float = 0.0
     local_noise: bool = True
-    local_window: float = 4.0
+    local_window: float = 2.0
     local_floor: float = 0.01
     local_scale_decades: float = 1.0
-    local_linear: bool = False
+    local_linear: bool = True
+    local_end_common: float = 2.0
+    bias_band: bool = True
 
 
 # ----------------------------------------------------------------------------- input
@@ -397,7 +416,8 @@ def smooth(
     density where the shape is at its mean and ``q_frames`` (n,) the one used at each
     frame), ``cov``
     ({angle: (n, k, k) smoothed covariance of [angle, rate, acceleration(, jerk)] in SI,
-    NaN outside the track}), ``model``, ``loglik`` (sum over angles), ``notes``.
+    with the bias term of ``SmoothSettings.bias_band``, NaN outside the track}),
+    ``model``, ``loglik`` (sum over angles), ``notes``.
 
     Raises
     ------
@@ -569,8 +589,12 @@ def smooth(
             w[j, ok[0]:ok[-1] + 1] = noisy[ok[0]:ok[-1] + 1]
         ref = np.array([np.exp(np.average(np.log(lam_ml[a]), weights=w[j] + 1e-300))
                         for j, a in enumerate(free)])
-        shape = jerk_noise_shape(acc, ts, w, settings.local_window * ref ** (-1.0 / (2 * k)),
-                                 settings.local_floor, settings.local_linear) * ref[:, None]
+        half = settings.local_window * ref ** (-1.0 / (2 * k))
+        shape = jerk_noise_shape(acc, ts, w, half, settings.local_floor, settings.local_linear)
+        ends = np.array([np.flatnonzero(valid[a])[-1] for a in range(A)])
+        shape = track_end_common_noise(shape, w, ends[free], int(ends.max()),
+                                       settings.local_end_common * half)
+        shape = shape * ref[:, None]
         cut = -2 * k * np.log10(settings.noise.cutoff_factor)
         shift = int(np.ceil(cut / (settings.noise.log10_step / 2) - 1e-9)) if cut > 0 else 0
         step = cut / shift if shift else settings.noise.log10_step / 2
@@ -594,8 +618,8 @@ def smooth(
                                    e.loglik, e.at_edge or top - shift < 0)
             lam_ml[a] = e.lam_ml * shape[j]
             lam_use[a] = 10.0 ** offsets[use] * shape[j]
-        return lam_use, lam_ml, est, backward_smoother(steps, filt.series(np.array(pick)),
-                                                       valid[free])
+        picked = filt.series(np.array(pick))
+        return lam_use, lam_ml, est, backward_smoother(steps, picked, valid[free]), picked
 
     def release_index(rel_s: float | None) -> int | None:
         return None if rel_s is None else int(np.searchsorted(ts, rel_s, side="right"))
@@ -658,7 +682,7 @@ def smooth(
                                           lam_ml[free] * r2f[:, None], kick[free], r2f,
                                           x0[free], P0[free], store=True)
             acc = smoothed_states(steps, nearest, valid[free])[:, :, 2].T
-        lam_use, lam_ml, est, sm = local_noise(steps, acc, est, lam_ml, free)
+        lam_use, lam_ml, est, sm, filt = local_noise(steps, acc, est, lam_ml, free)
         if len(free) < A:
             filt, sm = final_pass(steps, lam_use, lam_ml, est, scan=False)
 
@@ -676,6 +700,14 @@ def smooth(
             xs[:, a] = res["xs"]
             Ps[:, a] = res["Ps"]
 
+    if settings.bias_band:
+        used = filt.series(np.arange(A))
+
+        def again(series: np.ndarray, prior: np.ndarray) -> np.ndarray:
+            return smoothed_states(steps, refiltered(steps, used, series, valid, prior), valid)
+
+        bias = again(xs[:, :, 0].T, x0) - xs
+        Ps = Ps + bias[..., :, None] * bias[..., None, :]
     # back to SI
     scale = tau ** -np.arange(k)
     xs = xs * scale

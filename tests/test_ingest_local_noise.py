@@ -1,6 +1,7 @@
-"""Local process noise (q per frame from the jerk of a first smoothing) and the exact
-shortcuts it and the speed work rely on: filter series picked from a batch, stacked
-uncertainty propagation."""
+"""Local process noise (q per frame from the jerk of a first smoothing; at the end of the
+sling's track the angles' common shape), the smoothing bias in the bands, and the exact
+shortcuts they and the speed work rely on: filter series picked from a batch, a filter's
+means re-run on other data, stacked uncertainty propagation."""
 
 from __future__ import annotations
 
@@ -15,10 +16,11 @@ from trebuchet.ingest.kalman_batch import (
     backward_smoother,
     batch_kalman_filter,
     polynomial_transition,
+    refiltered,
     smoothed_states,
     white_noise_covariance,
 )
-from trebuchet.ingest.noise_tuning import jerk_noise_shape
+from trebuchet.ingest.noise_tuning import jerk_noise_shape, track_end_common_noise
 from trebuchet.ingest.reconstruct import loads_from_smoothed
 from trebuchet.ingest.simulated_log import simulated_log
 from trebuchet.ingest.smooth import ANGLES, SmoothSettings, smooth
@@ -174,3 +176,114 @@ def test_local_linear_window_follows_a_trend_to_the_track_end():
     assert mean[0, 149] < est[0, 149] - 0.2
     np.testing.assert_allclose(lin[1, :150], 3.0, rtol=1e-9)
     np.testing.assert_allclose(mean[1, 40:110], lin[1, 40:110], rtol=1e-12)
+
+
+def test_track_end_common_noise_raises_only_the_end_of_a_track_that_stops_early():
+    n = 200
+    shape = np.ones((3, n))
+    shape[0, 120:] = 40.0  # the beam's jerk rises at the end of the swing ...
+    shape[1, 120:] = 10.0
+    shape[2, 120:] = 0.01  # ... the sling's own first pass, ending at 149, misses it
+    weight = np.ones((3, n))
+    weight[2, 150:] = 0.0
+    ends = np.array([199, 199, 149])
+    out = track_end_common_noise(shape, weight, ends, 199, np.full(3, 20.0))
+    np.testing.assert_array_equal(out[:2], shape[:2])  # tracks that go on: unchanged
+    np.testing.assert_array_equal(out[2, :129], shape[2, :129])  # before the span
+    np.testing.assert_allclose(out[2, 129:150], (40.0 + 10.0 + 0.01) / 3)  # mean of three
+    np.testing.assert_array_equal(out[2, 150:], shape[2, 150:])  # after the track
+    # where its own shape is the larger, it stays
+    own = shape.copy()
+    own[2, 140] = 100.0
+    assert track_end_common_noise(own, weight, ends, 199, np.full(3, 20.0))[2, 140] == 100.0
+    # a track ending with the others (fewer than three steps before), or one angle: as is
+    np.testing.assert_array_equal(
+        track_end_common_noise(shape, weight, np.array([199, 199, 197]), 199,
+                               np.full(3, 20.0)), shape)
+    np.testing.assert_array_equal(
+        track_end_common_noise(shape[2:], weight[2:], ends[2:], 199, np.full(1, 20.0)),
+        shape[2:])
+
+
+def test_refiltered_means_equal_a_fresh_filter_of_the_other_data():
+    n, k = 150, 3
+    dt = np.ones(n)
+    F = polynomial_transition(k, dt)
+    F[0] = np.eye(k)
+    Q0 = white_noise_covariance(k, dt)
+    Q0[:30] = 0.0  # a rest before a trigger, then a kick in acceleration at step 31
+    G = np.zeros_like(F)
+    G[31, 2, 2] = 1.0
+    steps = StepModel(F, Q0, G)
+    rng = np.random.default_rng(4)
+    z1 = np.cumsum(np.cumsum(rng.normal(size=(2, n)), axis=1), axis=1) * 1e-2
+    z2 = np.sin(np.arange(n) / 9.0)[None] + rng.normal(size=(2, n))
+    valid = rng.random((2, n)) > 0.1
+    lam = np.array([[1e-3], [1e-1]]) * np.linspace(0.5, 2.0, n)[None]  # per step
+    x0 = np.zeros((2, k))
+    x0[:, 0] = z1[:, 0]
+    P0 = np.zeros((2, k, k))
+    P0[:, 0, 0] = 100.0
+    args = (valid, steps, lam, np.full(2, 10.0), np.ones(2))
+    first = batch_kalman_filter(z1, *args, x0, P0, store=True)
+    fresh = batch_kalman_filter(z2, *args, x0, P0, store=True)
+    again = refiltered(steps, first, z2, valid, x0)
+    for field in ("xp", "nu", "x_end"):
+        np.testing.assert_allclose(getattr(again, field), getattr(fresh, field), rtol=1e-9,
+                                   atol=1e-9, err_msg=field)
+    np.testing.assert_allclose(smoothed_states(steps, again, valid),
+                               backward_smoother(steps, fresh, valid).x, rtol=1e-9, atol=1e-9)
+
+
+def _bias_pair(log: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    events = {"trigger": None, "release": None}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return (smooth(log, events=events),
+                smooth(log, events=events, settings=SmoothSettings(bias_band=False)))
+
+
+def test_bias_band_is_nil_on_a_parabola_and_widens_a_fast_bump():
+    """The constant-acceleration smoother reproduces a parabola, so smoothing its smoothed
+    angle again changes nothing: no bias term. A bump faster than the smoother (1° noise
+    at 60 fps) is flattened: the band widens there and holds the truth more often."""
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 3.0, 1.0 / 60.0)
+    noise = np.radians(1.0)
+
+    def log_of(x):
+        return pd.DataFrame({"t": t, "theta": x + rng.normal(0.0, noise, t.size),
+                             "psi": 0.5 * x + rng.normal(0.0, noise, t.size), "phi": np.nan})
+
+    with_bias, without = _bias_pair(log_of(0.1 + 0.3 * t - 0.2 * t**2))
+    for col in ("theta", "theta_d", "theta_dd"):
+        np.testing.assert_array_equal(with_bias[col], without[col])
+        np.testing.assert_allclose(with_bias[col + "_sd"], without[col + "_sd"], rtol=1e-3)
+    bump = 0.4 * np.exp(-(((t - 1.5) / 0.25) ** 2))
+    with_bias, without = _bias_pair(log_of(bump))
+    ratio = (with_bias["theta_sd"] / without["theta_sd"]).to_numpy()
+    assert ratio.min() >= 1.0 - 1e-12 and ratio.max() > 1.1
+    cover = {key: np.mean(np.abs(est["theta"] - bump) <= 2 * est["theta_sd"])
+             for key, est in (("bias", with_bias), ("none", without))}
+    assert cover["bias"] > cover["none"], cover
+
+
+def test_sling_band_at_its_track_end_is_wider_than_its_own_first_pass_gives(paper_240):
+    """The sling's track ends at the release just as it whips round; its own first pass
+    cannot show that, the beam's and the arm's can. Their common shape keeps the sling's
+    q up there, and the band of its rate holds the truth closer."""
+    log, truth, local, _ = paper_240
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        own = smooth(log, events={"release": truth.attrs["events"]["release"]},
+                     settings=SmoothSettings(local_end_common=0.0))
+    last = np.flatnonzero(np.isfinite(log["phi"].to_numpy()))[-1]
+    end = np.arange(last - 9, last + 1)
+    q_common = local.attrs["noise"]["phi"]["q_frames"][end]
+    q_own = own.attrs["noise"]["phi"]["q_frames"][end]
+    # the local-linear fit carries the sling's own falling jerk down to the floor at the end
+    assert np.all(q_common >= q_own) and q_common[-1] > 10 * q_own[-1]
+    z = {key: np.max(np.abs((est["phi_d"] - truth["phi_d"]).to_numpy()[end]
+                            / est["phi_d_sd"].to_numpy()[end]))
+         for key, est in (("common", local), ("own", own))}
+    assert z["common"] < z["own"] and z["common"] < 3.0, z
