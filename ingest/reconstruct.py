@@ -64,7 +64,7 @@ EVENT_KEYS = ("trigger", "lift_off", "release")
 PRESETS: dict[str, tuple[SmoothSettings, int]] = {
     "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0), local_noise=False), 1),
     "default": (SmoothSettings(), 2),
-    "precise": (SmoothSettings(noise=NoiseSearch(log10_step=0.25)), 2),
+    "precise": (SmoothSettings(local_window=1.5), 2),
 }
 
 
@@ -118,11 +118,14 @@ class ReconstructOptions:
       end of the sling's track at least the angles' common shape), the smoothing bias in
       the bands (``SmoothSettings.local_noise``, ``bias_band``), second-order
       propagation (central differences, variance and bias);
-    - ``"precise"``: as the default with a noise grid of ¼ decade: |F_R| RMS error of
-      the three target cells 0.58 / 1.15 / 2.14 % of the peak against 0.60 / 1.17 /
-      2.16 % (``bench/ingest_accuracy.py``, six seeds), but 146 of 160 cells inside
-      85–99 % against 151 (4 too narrow, 10 too wide). Until the bias term and the
-      common track end (default since) it was the window of 2 time constants.
+    - ``"precise"``: as the default with a window of 1.5 time constants: smaller errors
+      (``bench/ingest_accuracy.py``, six seeds: mean |F_R| RMS error 1.58 % of the peak
+      against 1.62 %, the three target cells 0.60 / 1.15 / 2.05 % against 0.60 / 1.17 /
+      2.16 %) and as many cells inside 85–99 % (151 of 160; on seeds 6–11 157 against
+      150, on 12–17 152 against 154), but more of the misses are too narrow bands (4
+      against 1; 0 and 2 against 0 and 0), at 2° noise and 60–120 fps. A noise grid
+      of ¼ decade instead: 146 / 4 / 10, 1.62 %. Until the bias term and the common
+      track end (default since) it was the window of 2 time constants.
 
     An explicit ``smooth`` replaces the preset's smoother settings.
     """
