@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
-from trebuchet.output import write_csv
+from trebuchet.output import check_target, write_csv
 
-from .paper import paper_comparison
+from .paper import horsdal_scene_path, paper_comparison
 from .scene import Scene
 from .simulate import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
 
@@ -43,13 +44,24 @@ def _accuracy(text: str) -> float | str:
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    check_target(args.output)
     scene = Scene.from_toml(args.scene)
     run = simulate(scene, rtol=args.accuracy, after_release=args.after_release, dt=args.dt)
     write_csv(run, args.output)
-    ev, fl = run.attrs["events"], run.attrs["flight"]
-    print(f"lift-off {ev['lift_off']:.4f} s, release {ev['release']:.4f} s, "
-          f"range in vacuum {fl['range']:.1f} m; {len(run)} rows -> {args.output}")
+    print(simulation_summary(run) + f"; {len(run)} rows -> {args.output}")
     return 0
+
+
+def simulation_summary(run) -> str:
+    """One line: the events the shot went through and the flight's range (s, m)."""
+    ev, fl = run.attrs["events"], run.attrs["flight"]
+    parts = [f"{name.replace('_', '-')} {ev[name]:.4f} s" for name in ("lift_off", "release")
+             if name in ev]
+    if fl is not None:
+        parts.append(f"range ({fl.get('model', 'vacuum')}) {fl['range']:.1f} m")
+    else:
+        parts.append(f"dry fire, {ev['end']:.4f} s simulated")
+    return ", ".join(parts)
 
 
 def format_paper_table(table, markdown: bool = False) -> str:
@@ -60,7 +72,7 @@ def format_paper_table(table, markdown: bool = False) -> str:
                      f"{r.difference:+.3g}", "" if r.agrees else "differs", r.note))
     if markdown:
         lines = ["| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
-        lines += ["| " + " | ".join(r) + " |" for r in rows[1:]]
+        lines += ["| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows[1:]]
         return "\n".join(lines)
     widths = [max(len(r[i]) for r in rows) for i in range(6)]
     return "\n".join("  ".join(c.ljust(w) for c, w in zip(r[:6], widths, strict=True))
@@ -68,8 +80,14 @@ def format_paper_table(table, markdown: bool = False) -> str:
 
 
 def _paper(args: argparse.Namespace) -> int:
+    if args.output:
+        check_target(args.output)
     scene = Scene.from_toml(args.scene) if args.scene else None
     table = paper_comparison(scene)
+    paper = Scene.from_toml(horsdal_scene_path())
+    if scene is not None and scene.engine != paper.engine:
+        print(f"trebuchet: note: {args.scene} is not the engine of the paper's Table 1; its "
+              "numbers are set beside the paper's all the same", file=sys.stderr)
     print(format_paper_table(table, markdown=args.markdown))
     if args.output:
         write_csv(table, args.output)

@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from trebuchet.errors import TrebuchetInputError
+
 from .initial import initial_state, static_forces
 from .scene import Scene
 from .simulate import simulate
@@ -218,6 +220,10 @@ def paper_comparison(scene: Scene | None = None) -> pd.DataFrame:
     Returns a DataFrame with columns ``section, quantity, unit, paper, computed, difference,
     tolerance, agrees, note``.
     """
+    if scene is not None and scene.projectile != "trough":
+        raise TrebuchetInputError(
+            f"{scene.source}: [start] projectile = {scene.projectile!r}: the paper's numbers "
+            "are for a shot from the trough; compare a scene that starts there")
     shot = _Shot(scene if scene is not None else Scene.from_toml(horsdal_scene_path()))
     records = []
     for row in paper_values():

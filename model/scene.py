@@ -13,6 +13,7 @@ counterweight trebuchet: on internal forces" (called *the paper* below).
 from __future__ import annotations
 
 import math
+import numbers
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -53,6 +54,22 @@ class Engine:
     m: float
     I: float
     counterweight_offset: float | None = None
+
+    def __post_init__(self) -> None:
+        """Refuse what no engine can be, also where a program builds or ``replace``-s one (a
+        scene file's reader names the file and key before it gets here)."""
+        for name, least in (("L1", 0.0), ("L2", 0.0), ("L3", 0.0), ("m_b", 0.0), ("M", 0.0),
+                            ("I", 0.0), ("L4", None), ("m", None)):
+            value = getattr(self, name)
+            if not (isinstance(value, numbers.Real) and math.isfinite(value)):
+                raise TrebuchetInputError(f"Engine: {name} = {value!r}: must be a finite number")
+            if (value <= 0.0) if least is not None else (value < 0.0):
+                raise TrebuchetInputError(f"Engine: {name} = {value:g}: must be "
+                                          + ("positive" if least is not None else
+                                             "zero or positive"))
+        if not -self.L2 <= self.L_CM <= self.L1:
+            raise TrebuchetInputError(f"Engine: L_CM = {self.L_CM!r} m: must lie on the beam, "
+                                      f"between -L2 = {-self.L2:g} m and L1 = {self.L1:g} m")
 
     @property
     def fixed_counterweight(self) -> bool:

@@ -268,8 +268,11 @@ def _phase_trough(scene: Scene, beam: list[float], rtol: float, method: str,
     sol = _solve(scene, 1, 0.0, MAX_SHOT, beam, ev, rtol, method)
     _check(sol, scene, "phase I")
     if sol.status != 1:
-        raise TrebuchetInputError(f"{scene.source}: the projectile did not lift off within "
-                                  f"{MAX_SHOT:g} s")
+        raise TrebuchetInputError(
+            f"{scene.source}: [engine] the projectile did not lift off within {MAX_SHOT:g} s: "
+            f"the counterweight (M = {e.M:g} kg, L2 = {e.L2:g} m) cannot swing the beam "
+            f"(I = {e.I:g} kg m², m_b = {e.m_b:g} kg) and the projectile (m = {e.m:g} kg) "
+            "fast enough; a heavier counterweight, a lighter beam or projectile would")
     if sol.t_events[1].size:
         raise TrebuchetInputError(
             f"{scene.source}: [engine] M = {e.M:g} kg: the counterweight cannot lift the "
@@ -398,8 +401,12 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     ``attrs["diagnostics"]`` the solver, tolerance, number of evaluations and energy drift.
     """
     rtol = resolve_rtol(rtol)
+    times = None if t_eval is None else _checked_times(t_eval)
+    if times is None and not (math.isfinite(dt) and dt > 0.0):
+        raise TrebuchetInputError(f"dt = {dt:g} s: the output step must be a positive number "
+                                  "of seconds")
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
-    times = default_times(traj, dt) if t_eval is None else np.asarray(t_eval, dtype=float)
+    times = default_times(traj, dt) if times is None else times
     cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
     _refuse_non_finite(cols, scene)
     drift = float(np.max(np.abs(engine_energy(cols, traj)))) if times.size else 0.0
@@ -420,6 +427,21 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
             f"{b:.4g} s: a rigid sling cannot push, so the loads there are fiction"),
             stacklevel=2)
     return run
+
+
+def _checked_times(t_eval: Sequence[float] | np.ndarray) -> np.ndarray:
+    """``t_eval`` as a one-dimensional array of finite floats (s), or a refusal saying why."""
+    try:
+        t = np.asarray(t_eval, dtype=float)
+    except (TypeError, ValueError):
+        raise TrebuchetInputError("t_eval must hold numbers (s after the trigger)") from None
+    if t.ndim != 1:
+        raise TrebuchetInputError(f"t_eval must be one-dimensional, got shape {t.shape}")
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise TrebuchetInputError(f"t_eval[{bad[0]}] = {t[bad[0]]}: times must be finite "
+                                  f"({bad.size} are not)")
+    return t
 
 
 def slack_intervals(run: Mapping[str, Any]) -> list[tuple[float, float]]:

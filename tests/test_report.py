@@ -18,6 +18,7 @@ from trebuchet.ingest import report as report_mod  # noqa: E402
 from trebuchet.ingest.report import write_report  # noqa: E402
 from trebuchet.model import report_cli  # noqa: E402
 from trebuchet.model.figures import FIGURES  # noqa: E402
+from trebuchet.output import OUTPUT_MARKER  # noqa: E402
 
 from .conftest import HORSDAL  # noqa: E402
 
@@ -45,8 +46,8 @@ def test_write_report_writes_pngs_tables_and_escaped_html(tmp_path):
     write_report(out, {"one": small_figure(), "two": small_figure}, {"metrics": table},
                  ["sling <slack>"], title="T & <t>", captions={"one": "first"},
                  csv_tables=["metrics"], progress=said.append)
-    assert sorted(p.name for p in out.iterdir()) == ["index.html", "metrics.csv", "one.png",
-                                                    "two.png"]
+    assert sorted(p.name for p in out.iterdir()) == [OUTPUT_MARKER, "index.html", "metrics.csv",
+                                                    "one.png", "two.png"]
     assert (out / "one.png").read_bytes()[:8] == PNG
     assert (out / "two.png").read_bytes()[:8] == PNG
     text = (out / "index.html").read_text(encoding="utf-8")
@@ -71,7 +72,7 @@ def test_a_figure_failing_midway_leaves_no_report_and_keeps_the_old_one(tmp_path
     write_report(out, {"one": small_figure()}, {}, [], title="old")
     with pytest.raises(RuntimeError):
         write_report(out, {"one": small_figure(), "two": broken}, {}, [], title="new")
-    assert sorted(p.name for p in out.iterdir()) == ["index.html", "one.png"]
+    assert sorted(p.name for p in out.iterdir()) == [OUTPUT_MARKER, "index.html", "one.png"]
     assert "old" in (out / "index.html").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
 
@@ -90,7 +91,8 @@ def test_report_command_writes_index_and_every_figure(tmp_path, monkeypatch, cap
     args = parser().parse_args(["report", str(HORSDAL), "-o", str(out), "--dt", "0.002"])
     assert args.run(args) == 0
     names = sorted(p.name for p in out.iterdir())
-    assert names == sorted(["index.html", "peaks.csv", *(f"{n}.png" for n in FIGURES)])
+    assert names == sorted([OUTPUT_MARKER, "index.html", "peaks.csv",
+                           *(f"{n}.png" for n in FIGURES)])
     for n in FIGURES:
         assert (out / f"{n}.png").read_bytes()[:8] == PNG
     html = (out / "index.html").read_text(encoding="utf-8")

@@ -5,7 +5,7 @@ follows the sources, and the pandas-free output path of simulate."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import asdict, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -93,7 +93,10 @@ def test_fixed_counterweight_runs_compiled():
 
 def test_step_too_small_is_reported(horsdal):
     """A right-hand side that turns NaN makes every step fail: status −1, not a hang."""
-    broken = replace(horsdal.engine, L3=math.nan)
+    with pytest.raises(TrebuchetInputError, match="L3 = nan"):  # an Engine refuses it
+        replace(horsdal.engine, L3=math.nan)
+    broken = SimpleNamespace(**(asdict(horsdal.engine) | {"L3": math.nan}),
+                             fixed_counterweight=False)  # so the kernel gets it unchecked
     sol = sk.solve_phase(3, broken, horsdal.g, horsdal.start.H, 0.0, 1.0,
                          np.array([horsdal.start.theta, horsdal.start.psi, 0.0, 0.0]), 1e-10)
     assert sol.status == -1

@@ -2,7 +2,12 @@
 
 A command that fails midway must leave no partial file or report behind: every
 output is written under a temporary name beside its target and renamed into
-place only when complete.
+place only when complete. A target that cannot be written (no such folder, no
+permission, a folder where a file is asked for or the other way round) is a
+user's mistake, refused with a :class:`~trebuchet.errors.TrebuchetInputError`
+that names it; a folder is replaced only where it holds a previous report (or
+nothing), never a user's other files. Outputs get the permissions of the
+user's umask, as a plain ``open`` would give them.
 """
 
 from __future__ import annotations
@@ -16,20 +21,69 @@ from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["atomic_path", "atomic_dir", "write_csv"]
+from trebuchet.errors import TrebuchetInputError
+
+__all__ = ["atomic_path", "atomic_dir", "write_csv", "check_target", "OUTPUT_MARKER"]
+
+#: An empty file in every folder this package writes: such a folder may be replaced by the
+#: next run. (A folder with an ``index.html`` is a report of an earlier version: also ours.)
+OUTPUT_MARKER = ".trebuchet-output"
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _refuse(target: Path, exc: OSError) -> TrebuchetInputError:
+    return TrebuchetInputError(f"{target}: cannot write here: {exc.strerror or exc}")
+
+
+def _parent(target: Path) -> None:
+    """Create the folder that will hold ``target``, or refuse with the reason."""
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _refuse(target, exc) from None
+
+
+def check_target(target: str | Path, folder: bool = False) -> Path:
+    """Refuse, before any work, a target that cannot take the output: a folder where a file
+    is to be written, a file where a folder is, or a folder that holds a user's other files
+    (``folder=True``: a report folder, which the next run replaces whole)."""
+    target = Path(target)
+    if not folder and target.is_dir():
+        raise TrebuchetInputError(f"{target}: is a folder; give a file name to write")
+    if folder and target.exists() and not target.is_dir():
+        raise TrebuchetInputError(f"{target}: is a file; give a folder name for the report")
+    if folder and target.is_dir() and any(target.iterdir()) and not (
+            (target / OUTPUT_MARKER).is_file() or (target / "index.html").is_file()):
+        raise TrebuchetInputError(f"{target}: the folder holds other files and no earlier "
+                                  "output of trebuchet; give a new or empty folder")
+    if target.parent.exists() and not target.parent.is_dir():
+        raise TrebuchetInputError(f"{target}: {target.parent} is a file, not a folder")
+    return target
 
 
 @contextlib.contextmanager
 def atomic_path(target: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; on success rename it to ``target``."""
-    target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    target = check_target(target)
+    _parent(target)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    except OSError as exc:
+        raise _refuse(target, exc) from None
     os.close(fd)
     tmp_path = Path(tmp)
     try:
         yield tmp_path
-        os.replace(tmp_path, target)
+        try:
+            os.chmod(tmp_path, 0o666 & ~_umask())
+            os.replace(tmp_path, target)
+        except OSError as exc:
+            raise _refuse(target, exc) from None
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
@@ -37,20 +91,31 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
 
 @contextlib.contextmanager
 def atomic_dir(target: str | Path) -> Iterator[Path]:
-    """Yield a temporary directory beside ``target``; on success it replaces ``target``."""
-    target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    """Yield a temporary directory beside ``target``; on success it replaces ``target``, which
+    must not exist, be empty, or hold an earlier output of this package
+    (:func:`check_target`)."""
+    target = check_target(target, folder=True)
+    _parent(target)
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp",
+                                    dir=target.parent))
+    except OSError as exc:
+        raise _refuse(target, exc) from None
     try:
         yield tmp
-        if target.exists():
-            old = target.with_name(f".{target.name}.old")
-            shutil.rmtree(old, ignore_errors=True)
-            os.replace(target, old)
-            os.replace(tmp, target)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, target)
+        try:
+            (tmp / OUTPUT_MARKER).touch()
+            os.chmod(tmp, 0o777 & ~_umask())
+            if target.exists():
+                old = target.with_name(f".{target.name}.old")
+                shutil.rmtree(old, ignore_errors=True)
+                os.replace(target, old)
+                os.replace(tmp, target)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.replace(tmp, target)
+        except OSError as exc:
+            raise _refuse(target, exc) from None
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
