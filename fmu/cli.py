@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from trebuchet.output import check_target
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     fmu = sub.add_parser("fmu", help="build the co-simulation FMU and its cross-check files",
@@ -30,6 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _build(args: argparse.Namespace) -> int:
     from .build import build_fmu
 
+    check_target(args.output)
     path = build_fmu(args.output)
     print(f"FMI 2.0 co-simulation FMU -> {path}")
     return 0
@@ -38,6 +41,7 @@ def _build(args: argparse.Namespace) -> int:
 def _crosscheck(args: argparse.Namespace) -> int:
     from .crosscheck import write_crosscheck
 
+    check_target(args.output, folder=True)
     folder = write_crosscheck(args.fmu, args.output)
     print(f"cross-check files -> {folder}")
     return 0

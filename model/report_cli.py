@@ -12,6 +12,7 @@ from pathlib import Path
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.report import write_report
+from trebuchet.output import check_target
 
 from .figures_numbers import event_table, flight_table, peak_table
 from .scene import Scene
@@ -91,6 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _report(args: argparse.Namespace) -> int:
     start = time.monotonic()
+    check_target(args.output, folder=True)
     scene = Scene.from_toml(args.scene)
     out = report_scene(scene, args.output, dt=args.dt,
                        progress=None if args.quiet else _stderr)

@@ -14,7 +14,7 @@ import argparse
 import time
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.output import write_csv
+from trebuchet.output import check_target, write_csv
 
 from .scene import Scene
 from .simulate import ACCURACY
@@ -66,6 +66,7 @@ def _sweep(args: argparse.Namespace) -> int:
         raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
     options = SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release)
     options.check()
+    check_target(args.output)
     base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
     table = sweep(base, grid, executor=args.scheduler, workers=args.workers,

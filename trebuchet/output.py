@@ -63,7 +63,24 @@ def check_target(target: str | Path, folder: bool = False) -> Path:
                                   "output of trebuchet; give a new or empty folder")
     if target.parent.exists() and not target.parent.is_dir():
         raise TrebuchetInputError(f"{target}: {target.parent} is a file, not a folder")
+    _probe(target)
     return target
+
+
+def _probe(target: Path) -> None:
+    """Refuse a target whose nearest existing folder takes no new file (no permission, a
+    read-only or virtual file system): a temporary file is made there and removed."""
+    folder = target.parent.absolute()
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise TrebuchetInputError(f"{target}: {folder} is a file, not a folder")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".probe", dir=folder)
+    except OSError as exc:
+        raise _refuse(target, exc) from None
+    os.close(fd)
+    os.unlink(probe)
 
 
 @contextlib.contextmanager
