@@ -149,3 +149,10 @@ def test_an_engine_refuses_impossible_values_however_it_is_built(horsdal):
         dataclasses.replace(horsdal.engine, M=-5.0)
     with pytest.raises(TrebuchetInputError, match="L_CM"):
         dataclasses.replace(horsdal.engine, L_CM=100.0)
+
+
+def test_a_bad_report_folder_is_refused_before_the_work_starts(tmp_path, capsys):
+    """No progress line comes before the refusal: the target is checked first."""
+    a_file = tmp_path / "a_file"
+    a_file.write_text("keep\n")
+    _refused(capsys, ["report", str(HORSDAL), "-o", str(a_file / "rep")], str(a_file))
