@@ -96,8 +96,11 @@ class ReconstructOptions:
     "average": :mod:`~trebuchet.ingest.model_choice`); ``smooth``: its settings
     (default: the preset's). Measured on ``bench/ingest_accuracy.py`` (six seeds,
     projected form; inside / too narrow / too wide of 85–99 %, mean |F_R| RMS error):
-    the default 151 / 1 / 8, 1.62 % (:class:`~trebuchet.ingest.smooth.SmoothSettings`
-    gives the steps to it); with the default smoother settings before that (local noise
+    the default 157 / 0 / 3, 1.62 % (seeds 6–11: 158 / 0 / 2, 12–17: 160 / 0 / 0;
+    :class:`~trebuchet.ingest.smooth.SmoothSettings` gives the steps to it: bands of
+    the measurement noise's error plus the process noise's share as far as the data
+    show it, and two terms of the bias; before them 151 / 1 / 8, 150 / 0 / 10 and
+    154 / 0 / 6); with the default smoother settings before that (local noise
     over a window of 4 time constants, no bias term; 139 / 7 / 14, 1.83 %) and at the
     maximum-likelihood ``q``
     (``smooth=SmoothSettings(noise=NoiseSearch(cutoff_factor=1.0))``) "ca" 86 / 0 / 74,
@@ -116,8 +119,10 @@ class ReconstructOptions:
     - ``"default"``: grid step ½ decade, the process noise shaped frame by frame by the
       jerk of a first smoothing over a window of 2 time constants (local-linear; at the
       end of the sling's track at least the angles' common shape), the smoothing bias in
-      the bands (``SmoothSettings.local_noise``, ``bias_band``), second-order
-      propagation (central differences, variance and bias);
+      the bands (two terms of its series) and the posterior's process-noise share only
+      as far as the data show it (``SmoothSettings.local_noise``, ``bias_band``,
+      ``band_variance``), second-order propagation (central differences, variance and
+      bias);
     - ``"precise"``: as the default with a window of 1.5 time constants: smaller errors
       (``bench/ingest_accuracy.py``, six seeds: mean |F_R| RMS error 1.58 % of the peak
       against 1.62 %, the three target cells 0.60 / 1.15 / 2.05 % against 0.60 / 1.17 /
@@ -125,7 +130,10 @@ class ReconstructOptions:
       150, on 12–17 152 against 154), but more of the misses are too narrow bands (4
       against 1; 0 and 2 against 0 and 0), at 2° noise and 60–120 fps. A noise grid
       of ¼ decade instead: 146 / 4 / 10, 1.62 %. Until the bias term and the common
-      track end (default since) it was the window of 2 time constants.
+      track end (default since) it was the window of 2 time constants. With the
+      calibrated bands and two bias terms (default since): 154 / 4 / 2 against the
+      default's 157 / 0 / 3 (seeds 6–11: 160 / 0 / 0 against 158 / 0 / 2), the misses
+      too narrow at 2° noise and 60–120 fps.
 
     An explicit ``smooth`` replaces the preset's smoother settings.
     """

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.kalman_batch import (
     StepModel,
     backward_smoother,
@@ -287,3 +288,71 @@ def test_sling_band_at_its_track_end_is_wider_than_its_own_first_pass_gives(pape
                             / est["phi_d_sd"].to_numpy()[end]))
          for key, est in (("common", local), ("own", own))}
     assert z["common"] < z["own"] and z["common"] < 3.0, z
+
+
+def test_second_bias_term_takes_in_more_of_the_flattened_bump():
+    """Noise-free bump, q far too small: the error is all bias. Twicing's residual
+    (first term) gives about half of it at the peak; the second term of the series
+    ``(M − I) x = Σ (I − M)^j (M − I) x̂`` more, still below the whole."""
+    t = np.arange(0.0, 3.0, 1.0 / 60.0)
+    bump = 0.4 * np.exp(-(((t - 1.5) / 0.15) ** 2))
+    log = pd.DataFrame({"t": t, "theta": bump, "psi": np.nan, "phi": np.nan})
+    kw = {"events": {"trigger": None, "release": None}, "q": 3e2, "r": np.radians(1.0)}
+    plain = smooth(log, **kw, settings=SmoothSettings(bias_band=False, band_variance="posterior"))
+    err = np.abs(plain["theta"].to_numpy() - bump)
+    near = np.abs(t - 1.5) < 0.45
+    share, miss = {}, {}
+    for terms in (1, 2):
+        est = smooth(log, **kw, settings=SmoothSettings(bias_iterations=terms,
+                                                        band_variance="posterior"))
+        b = np.sqrt(np.maximum(est["theta_sd"] ** 2 - plain["theta_sd"] ** 2, 0.0)).to_numpy()
+        share[terms] = b[np.argmax(err)] / err.max()
+        miss[terms] = np.sqrt(np.mean((b - err)[near] ** 2))
+    assert 0.3 < share[1] < share[2] - 0.1 and share[2] < 1.0, share
+    assert miss[2] < 0.8 * miss[1], miss
+
+
+def _white_jerk(rng, t, q):
+    dt = np.diff(t, prepend=t[0])
+    F = polynomial_transition(3, dt)
+    Q = white_noise_covariance(3, dt) * q
+    x = np.zeros((t.size, 3))
+    for i in range(1, t.size):
+        x[i] = F[i] @ x[i - 1] + np.linalg.cholesky(Q[i]) @ rng.normal(size=3)
+    return x
+
+
+def test_calibrated_band_shrinks_only_where_the_data_show_less_jerk_than_the_model():
+    """A slow swing smoothed with a q a thousand times too large: the data show almost
+    none of that process noise, so the band keeps the measurement noise's share and the
+    bias and drops most of the rest (the acceleration's sd about halves), still holding
+    the truth. Data drawn from the smoother's own model keep most of the posterior."""
+    rng = np.random.default_rng(11)
+    t = np.arange(0.0, 3.0, 1.0 / 120.0)
+    noise = np.radians(0.3)
+    events = {"trigger": None, "release": None}
+    w = 2 * np.pi * 0.4
+    x, x_dd = 0.5 * np.sin(w * t), -0.5 * w**2 * np.sin(w * t)
+    log = pd.DataFrame({"t": t, "theta": x + rng.normal(0.0, noise, t.size),
+                        "psi": 0.3 * x + rng.normal(0.0, noise, t.size), "phi": np.nan})
+    posterior = SmoothSettings(band_variance="posterior")
+    cal = smooth(log, events=events, q=1e3, r=noise)
+    post = smooth(log, events=events, q=1e3, r=noise, settings=posterior)
+    scale = cal.attrs["noise"]["theta"]["band_scale"]
+    assert np.median(scale) < 0.2 and scale.max() <= 1.0
+    ratio = (cal["theta_dd_sd"] / post["theta_dd_sd"]).to_numpy()
+    assert ratio.max() <= 1.0 + 1e-9 and np.median(ratio) < 0.7
+    assert np.mean(np.abs(cal["theta_dd"] - x_dd) <= 2 * cal["theta_dd_sd"]) > 0.95
+    truth = _white_jerk(rng, t, 30.0)
+    log = pd.DataFrame({"t": t, "theta": truth[:, 0] + rng.normal(0.0, noise, t.size),
+                        "psi": np.nan, "phi": np.nan})
+    cal = smooth(log, events=events, q=30.0, r=noise)
+    assert np.median(cal.attrs["noise"]["theta"]["band_scale"]) > 0.6
+    assert np.mean(np.abs(cal["theta_dd"] - truth[:, 2]) <= 2 * cal["theta_dd_sd"]) > 0.85
+
+
+@pytest.mark.parametrize("bad", [{"band_variance": "wide"}, {"bias_iterations": 0},
+                                 {"bias_iterations": 1.5}])
+def test_band_settings_are_checked(bad):
+    with pytest.raises(TrebuchetInputError):
+        SmoothSettings(**bad)

@@ -9,7 +9,10 @@ from trebuchet.ingest.kalman_batch import (
     StepModel,
     backward_smoother,
     batch_kalman_filter,
+    error_covariance,
     polynomial_transition,
+    refiltered,
+    smoothed_states,
     white_noise_covariance,
 )
 from trebuchet.ingest.kalman_filterpy import filterpy_filter_smoother
@@ -93,3 +96,59 @@ def test_batch_equals_separate_runs():
         np.testing.assert_allclose(many.S[:, b], one.S[:, 0], rtol=1e-9)
         np.testing.assert_allclose(many.nu[:, b], one.nu[:, 0], rtol=1e-9, atol=1e-9)
         assert lam == lams[b]
+
+
+@pytest.mark.parametrize("k", [3, 4])
+def test_error_covariance_under_the_smoothers_own_model_is_its_posterior(k):
+    """Data from the smoother's own model: the error covariance of its gains is its P."""
+    steps, z, valid, x0, P0 = _case(k)
+    lam, kick, r2 = np.array([1e-3, 3e-2]), np.array([0.5, 2.0]), np.array([1.0, 0.3])
+    zz, vv = np.vstack([z, z]), np.vstack([valid, valid])
+    x0s, P0s = np.stack([x0, x0]), np.stack([P0, P0])
+    filt = batch_kalman_filter(zz, vv, steps, lam, kick, r2, x0s, P0s, store=True)
+    sm = backward_smoother(steps, filt, vv)
+    noise = (lam[None, :, None, None] * steps.Q0[:, None]
+             + kick[None, :, None, None] * steps.G[:, None])
+    err, cov_r = error_covariance(steps, filt, sm, vv, r2, noise, P0s, parts=True)
+    for got, want in ((err, sm.P), (cov_r, sm.N)):
+        # each element against its two sds (the filter's simple-form update leaves
+        # round-off of about 1e-5 of the larger ones near the jerk kick, k = 4)
+        d = np.sqrt(np.abs(np.diagonal(want, axis1=2, axis2=3)))
+        dd = d[..., :, None] * d[..., None, :]
+        assert np.max(np.abs(got - want) - 1e-5 * dd) <= 1e-12 * np.abs(want).max()
+
+
+def test_error_covariance_of_noise_alone_matches_simulation():
+    """Truth without process noise (a kick at the event only), the gains of a smoother
+    that expects plenty: the formula's error covariance against 4000 simulated runs,
+    far below the smoother's own P in the acceleration."""
+    k = 3
+    steps, _, valid, x0, P0 = _case(k, n=200)
+    lam, kick, r2 = np.array([5e-3]), np.array([0.5]), np.array([1.0])
+    rng = np.random.default_rng(7)
+    runs = 4000
+    # truth: rest, then at the kick an acceleration jump of sd √kick, carried exactly
+    x = np.zeros((runs, k))
+    x[:, 0] = rng.normal(0.0, np.sqrt(P0[0, 0]), runs)
+    truth = np.empty((steps.n, runs, k))
+    for i in range(steps.n):
+        x = x @ steps.F[i].T
+        if np.any(steps.G[i]):
+            w = np.linalg.cholesky(kick[0] * steps.G[i] + 1e-300 * np.eye(k))
+            x = x + rng.normal(size=(runs, k)) @ w.T
+        truth[i] = x
+    z = truth[:, :, 0].T + rng.normal(0.0, np.sqrt(r2[0]), (runs, steps.n))
+    ok = np.broadcast_to(valid, (1, steps.n))
+    filt = batch_kalman_filter(z[:1], ok, steps, lam, kick, r2, x0[None], P0[None], store=True)
+    sm = backward_smoother(steps, filt, ok)
+    many = refiltered(steps, filt.series(np.zeros(runs, int)), z, np.broadcast_to(valid, z.shape),
+                      np.broadcast_to(x0, (runs, k)))
+    xs = smoothed_states(steps, many, np.broadcast_to(valid, z.shape))
+    err = truth - xs
+    seen = np.einsum("nbi,nbj->nij", err, err) / runs
+    noise = kick[None, :, None, None] * steps.G[:, None]
+    want = error_covariance(steps, filt, sm, ok, r2, noise, P0[None])[:, 0]
+    for j in range(k):
+        rel = seen[100:, j, j] / want[100:, j, j]
+        assert np.all(np.abs(rel - 1.0) < 0.12), (j, rel.min(), rel.max())
+    assert np.all(want[100:, 2, 2] < 0.5 * sm.P[100:, 0, 2, 2])
