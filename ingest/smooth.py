@@ -182,7 +182,12 @@ class SmoothSettings:
     bias estimate cannot stand in for the process noise's share). The three cells still
     too wide are |F_S| at low noise (small engine 60 fps 0.1°, 1000 fps 0.5°; paper 1000
     fps 0.3°): each angle's band holds its truth about right there (z RMS 0.5–1.2) but
-    |F_S|'s error is smaller than the independent angles' errors give (z RMS 0.5–0.7).
+    |F_S|'s error is smaller than the independent angles' errors give (z RMS 0.5–0.7):
+    the parts of its error from θ and from φ correlate at −0.3 to −0.75 (the smoothing
+    errors of coupled motions), which block-diagonal bands cannot show. Dropped: the
+    bias as one joint shift of all angles in the loads (``(L(x̂ + b) − L(x̂))²`` in place
+    of the per-angle ``b bᵀ``) 156 / 0 / 4; ``α``'s window in local time constants
+    (``λ(t)^(−1/2k)`` frames) 155 / 0 / 5.
     The calibration and the second term cost about 40 ms: 2 s at 1000 fps, reconstruct()
     end to end, 0.23 s against 0.19 s.
     """
