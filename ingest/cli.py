@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.output import write_csv
+from trebuchet.output import check_target, write_csv
 
 from .reconstruct import FORMS, TROUGH, reconstruct
 
@@ -162,6 +162,7 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
 
 
 def _forces(args: argparse.Namespace) -> int:
+    check_target(args.output)
     options = log_options(args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

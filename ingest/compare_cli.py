@@ -15,8 +15,10 @@ from pathlib import Path
 
 import pandas as pd
 
+from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.report_cli import CAPTIONS
 from trebuchet.model.scene import Scene
+from trebuchet.output import check_target
 
 from .cli import add_log_arguments, log_options
 from .compare import ALIGN_MODES, RELEASE_MODES, CompareOptions, compare, event_table
@@ -114,6 +116,10 @@ def _summary(table: pd.DataFrame) -> Mapping[str, float]:
 
 def _compare(args: argparse.Namespace) -> int:
     start = time.monotonic()
+    # what can be checked before the progress lines start: the report folder, the log, the scene
+    check_target(args.output, folder=True)
+    if not Path(args.log).is_file():
+        raise TrebuchetInputError(f"{args.log}: no such file")
     reconstruct_options = log_options(args)
     scene = Scene.from_toml(args.scene)
     options = CompareOptions(release=args.release, align=args.align)

@@ -156,3 +156,12 @@ def test_a_bad_report_folder_is_refused_before_the_work_starts(tmp_path, capsys)
     a_file = tmp_path / "a_file"
     a_file.write_text("keep\n")
     _refused(capsys, ["report", str(HORSDAL), "-o", str(a_file / "rep")], str(a_file))
+
+
+def test_compare_and_forces_refuse_before_their_progress_lines(tmp_path, capsys):
+    missing = tmp_path / "shot.csv"
+    _refused(capsys, ["compare", str(missing), "--scene", str(HORSDAL), "-o",
+                      str(tmp_path / "rep")], str(missing), "no such file")
+    log = HORSDAL.parent / "horsdal_240fps.csv"
+    _refused(capsys, ["forces", str(log), "--scene", str(HORSDAL), "-o", str(tmp_path)],
+             "folder")
