@@ -48,7 +48,7 @@ from .advisory import resolution_advisories
 from .lift_off import lift_off_sd, lift_off_time
 from .noise_tuning import NoiseSearch
 from .scene_fit import geometry_findings, warn_findings
-from .smooth import ANGLES, SUFFIXES, SmoothSettings, smooth
+from .smooth import ANGLES, SUFFIXES, SmoothSettings, checked_events, smooth, validated_log
 from .uncertainty import propagate
 
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
@@ -59,7 +59,6 @@ FORMS = ("projected", "direct")
 TROUGH = ("constraint", "measured")
 STATE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES]
 DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
-EVENT_KEYS = ("trigger", "lift_off", "release")
 #: preset -> (smoother settings, uncertainty propagation order); see ReconstructOptions.
 PRESETS: dict[str, tuple[SmoothSettings, int]] = {
     "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0), local_noise=False), 1),
@@ -416,29 +415,6 @@ def _log_frame(path_or_log, fps, columns, points, min_likelihood) -> pd.DataFram
                               f"{type(path_or_log).__name__}")
 
 
-def _given_events(events: Mapping[str, float | None] | None, source: str
-                  ) -> dict[str, float | None]:
-    if events is None:
-        return {}
-    if not isinstance(events, Mapping):
-        raise TrebuchetInputError(f"{source}: events must be a dict like "
-                                  "{'trigger': s, 'lift_off': s, 'release': s}")
-    out: dict[str, float | None] = {}
-    for key, v in events.items():
-        if key not in EVENT_KEYS:
-            raise TrebuchetInputError(f"{source}: unknown event {key!r} (known: "
-                                      + ", ".join(EVENT_KEYS) + ")")
-        if v is None:
-            out[key] = None
-            continue
-        try:
-            out[key] = float(v)
-        except (TypeError, ValueError):
-            raise TrebuchetInputError(f"{source}: events[{key!r}] = {v!r} is not a time "
-                                      "in s") from None
-    return out
-
-
 def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Path,
                 fps: float | None = None, columns: Mapping[str, str] | None = None,
                 points: Mapping[str, str] | None = None, *,
@@ -493,7 +469,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     scene = as_scene(scene, "reconstruct")
     log = _log_frame(path_or_log, fps, columns, points, min_likelihood)
     source = str(log.attrs.get("source", "log"))
-    given = _given_events(events, source)
+    given: dict[str, float | None] = {}
+    if events is not None:
+        t_log, _ = validated_log(log, smoother_settings(options).min_frames)
+        given = checked_events(events, t_log, source)
     smooth_events = {k: v for k, v in given.items() if k in ("trigger", "release")}
     track_end = None
     if ("release" not in given and options.release_at_track_end

@@ -313,34 +313,55 @@ def _per_angle(value, name: str, tracked: list[str]) -> dict[str, float]:
     return out
 
 
-def _event_overrides(events, t: np.ndarray) -> dict[str, float | None]:
-    """Given events (log time, s): key present = given (None = no such event)."""
+EVENT_ORDER = ("trigger", "lift_off", "release")
+
+
+def checked_events(events, t: np.ndarray, source: str = "smooth") -> dict[str, float | None]:
+    """Given events (log time, s): key present = given (None = no such event).
+
+    Each given time must lie inside the log's span ``t[0]``–``t[-1]`` and the given ones
+    must be ordered trigger < lift-off < release; otherwise a :class:`TrebuchetInputError`
+    whose message starts with ``source`` (the log file's name when known) and names the
+    event.
+    """
     if events is None:
         return {}
     if not isinstance(events, Mapping):
-        raise TrebuchetInputError("smooth: events must be a dict like {'trigger': t, 'release': t}")
+        raise TrebuchetInputError(f"{source}: events must be a dict like "
+                                  "{'trigger': t, 'lift_off': t, 'release': t}")
     out: dict[str, float | None] = {}
     for key, v in events.items():
-        if key not in ("trigger", "release", "lift_off"):
-            raise TrebuchetInputError(f"smooth: unknown event '{key}' in events")
+        if key not in EVENT_ORDER:
+            raise TrebuchetInputError(f"{source}: unknown event {key!r} in events (known: "
+                                      + ", ".join(EVENT_ORDER) + ")")
         if v is None:
             out[key] = None
             continue
         try:
             v = float(v)
         except (TypeError, ValueError):
-            raise TrebuchetInputError(f"smooth: events['{key}'] = {v!r} is not a time") from None
+            raise TrebuchetInputError(f"{source}: events[{key!r}] = {v!r} is not a time "
+                                      "in s") from None
         if not (t[0] <= v <= t[-1]):
             raise TrebuchetInputError(
-                f"smooth: events['{key}'] = {v:g} s lies outside the log ({t[0]:g}–{t[-1]:g} s)"
+                f"{source}: events[{key!r}] = {v:g} s lies outside the log "
+                f"({t[0]:g}–{t[-1]:g} s)"
             )
         out[key] = v
-    trig, rel = out.get("trigger"), out.get("release")
-    if trig is not None and rel is not None and rel <= trig:
-        raise TrebuchetInputError(
-            f"smooth: events['release'] = {rel:g} s is not after the trigger ({trig:g} s)"
-        )
+    timed = [(k, out[k]) for k in EVENT_ORDER if out.get(k) is not None]
+    for (k0, v0), (k1, v1) in zip(timed, timed[1:], strict=False):
+        if v1 <= v0:
+            raise TrebuchetInputError(
+                f"{source}: events[{k1!r}] = {v1:g} s is not after events[{k0!r}] = {v0:g} s "
+                "(the order is trigger < lift_off < release)"
+            )
     return out
+
+
+def log_name(log) -> str:
+    """The log's file (``log.attrs['source']``, as read) for messages, else ``"smooth"``."""
+    source = log.attrs.get("source") if isinstance(log, pd.DataFrame) else None
+    return str(source) if source else "smooth"
 
 
 # ----------------------------------------------------------------------------- model
@@ -511,7 +532,7 @@ def smooth(
     valid = np.isfinite(Z)
     q_in = _per_angle(q, "q", tracked)
     r_in = _per_angle(r, "r", tracked)
-    given = _event_overrides(events, t)
+    given = checked_events(events, t, log_name(log))
     notes: list[str] = []
     for a in ANGLES:
         if a not in tracked:

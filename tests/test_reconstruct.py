@@ -128,6 +128,50 @@ def test_events_given_override_detection(horsdal):
         reconstruct(log, horsdal, events={"launch": 1.0})
 
 
+def _shot_file(horsdal, tmp_path):
+    log, truth = simulated_log(horsdal, 120, 0.3, seed=4, t0=0.8)
+    path = tmp_path / "shot.csv"
+    log.to_csv(path, index=False)
+    return path, log["t"].to_numpy(), truth.attrs["events"]
+
+
+@pytest.mark.filterwarnings("ignore::trebuchet.errors.TrebuchetDataWarning")
+def test_given_event_outside_the_log_is_refused_naming_file_and_event(horsdal, tmp_path):
+    path, t, true = _shot_file(horsdal, tmp_path)
+    for key, v in (("lift_off", t[-1] + 3.0), ("release", 100.0), ("trigger", t[0] - 0.1)):
+        with pytest.raises(TrebuchetInputError) as err:
+            reconstruct(path, horsdal, events={**true, key: v})
+        msg = str(err.value)
+        assert msg.startswith(str(path)) and f"events['{key}']" in msg, msg
+        assert "lies outside the log" in msg and f"{t[0]:g}" in msg, msg
+    # at the log's edges and inside it the events are accepted
+    r = _quiet(reconstruct, path, horsdal, events={"trigger": float(t[0]),
+                                                  "release": true["release"]})
+    assert r.attrs["events"]["trigger"] == pytest.approx(t[0])
+
+
+@pytest.mark.filterwarnings("ignore::trebuchet.errors.TrebuchetDataWarning")
+def test_given_events_out_of_order_are_refused_naming_file_and_event(horsdal, tmp_path):
+    path, t, true = _shot_file(horsdal, tmp_path)
+    trig, lift, rel = true["trigger"], true["lift_off"], true["release"]
+    cases = (({"lift_off": rel + 0.01, "release": rel}, "release", "lift_off"),
+             ({"trigger": lift + 0.01, "lift_off": lift}, "lift_off", "trigger"),
+             ({"trigger": rel, "release": trig}, "release", "trigger"),
+             ({"trigger": trig, "lift_off": None, "release": trig}, "release", "trigger"))
+    for events, late, early in cases:
+        with pytest.raises(TrebuchetInputError) as err:
+            reconstruct(path, horsdal, events=events)
+        msg = str(err.value)
+        assert msg.startswith(str(path)), msg
+        assert f"events['{late}']" in msg and f"after events['{early}']" in msg, msg
+    # smooth() names the file too when the log carries its source
+    from trebuchet.ingest.read_log import read_log
+
+    with pytest.raises(TrebuchetInputError, match=r"shot\.csv: events\['release'\] = 1.2 s is "
+                       r"not after events\['trigger'\]"):
+        smooth(read_log(path), events={"trigger": 1.5, "release": 1.2})
+
+
 def test_propagation_is_exact_for_a_square():
     """sd of y = x_d² for x_d ~ N(μ, σ²): var 4μ²σ² + 2σ⁴, bias σ²."""
     mu, sig = np.array([0.0, 1.0, 3.0]), np.array([0.5, 0.2, 1.0])
