@@ -260,7 +260,9 @@ def _event_variance(t: np.ndarray, event: float | None, sd: float,
 
 def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
                      trigger: float | None, release: float | None,
-                     options: ReconstructOptions) -> tuple[float | None, float]:
+                     options: ReconstructOptions,
+                     cross: dict[tuple[str, str], np.ndarray] | None = None
+                     ) -> tuple[float | None, float]:
     """Lift-off (s, log time) and its sd (s) from the phase-I normal force on every row."""
     t = state["t"].to_numpy()
     trial = shot_phases(t, scene, trigger, None, None)
@@ -276,7 +278,8 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     # the trial phases have no phase 3, so the rows are independent: one stacked call
     prop = propagate(lambda s: _evaluate(s, np.resize(trial[rows], len(s)), scene,
                                          options.form, options.trough),
-                     sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True)
+                     sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True,
+                     cross={ab: c[rows] for ab, c in (cross or {}).items()})
     return when, lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
 
 
@@ -313,6 +316,8 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     state = _state(est)
     cov = {a: np.asarray(c, dtype=float) for a, c in est.attrs["cov"].items()}
     cov = {a: c[:, :3, :3] for a, c in cov.items()}
+    cross = {ab: np.asarray(c, dtype=float)[:, :3, :3]
+             for ab, c in est.attrs.get("cross_cov", {}).items()}
     found = dict(est.attrs.get("events", {}))
     sources = dict(est.attrs.get("event_sources", {}))
     trigger = given["trigger"] if "trigger" in given else found.get("trigger")
@@ -336,7 +341,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
             event_sd["lift_off"] = 0.0
         else:
             lift, event_sd["lift_off"] = _detect_lift_off(state, cov, scene, trigger, release,
-                                                          options)
+                                                          options, cross)
             sources["lift_off"] = ("trough normal force reaches zero" if lift is not None
                                    else "the normal force never reaches zero before release")
     else:
@@ -344,7 +349,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     phase = shot_phases(t, scene, trigger, lift, release)
 
     prop = propagate(lambda s: _evaluate(s, phase, scene, options.form, options.trough),
-                     state, cov, order=propagation_order(options))
+                     state, cov, order=propagation_order(options), cross=cross)
     ev_var = (_event_variance(t, trigger, event_sd["trigger"], prop.value)
               + _event_variance(t, release, event_sd["release"], prop.value))
     sd = np.sqrt(prop.sd ** 2 + ev_var)

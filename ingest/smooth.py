@@ -56,6 +56,7 @@ from .kalman_batch import (
     backward_smoother,
     batch_kalman_filter,
     error_covariance,
+    error_cross_covariance,
     polynomial_transition,
     refiltered,
     smoothed_states,
@@ -79,6 +80,9 @@ SUFFIXES: tuple[str, ...] = ("", "_d", "_dd")
 #: measurement noise alone, or that plus the posterior's process-noise share scaled by
 #: what the data show of it (see ``SmoothSettings``).
 BAND_VARIANCES: tuple[str, ...] = ("posterior", "noise", "calibrated")
+#: ``SmoothSettings.band_cross``: the angles' errors independent, or correlated through
+#: white process noises with a cross-covariance estimated from the data.
+BAND_CROSS: tuple[str, ...] = ("none", "white")
 
 
 @dataclass(frozen=True)
@@ -190,6 +194,27 @@ class SmoothSettings:
     (``λ(t)^(−1/2k)`` frames) 155 / 0 / 5.
     The calibration and the second term cost about 40 ms: 2 s at 1000 fps, reconstruct()
     end to end, 0.23 s against 0.19 s.
+    ``band_cross``: ``"none"`` (default) the angles' errors independent; ``"white"`` also
+    the cross-covariances of their process-noise shares (``attrs["cross_cov"]``, used by
+    :func:`~trebuchet.ingest.uncertainty.propagate`): the angles' true jerks taken as white
+    noises whose cross-covariance ``κ`` per frame is estimated as ``α`` is (the backward
+    sums' cross-moment over the same window), and each pair of smoothers' error
+    cross-covariance for it computed exactly
+    (:func:`~trebuchet.ingest.kalman_batch.error_cross_covariance`, checked against 4000
+    simulated runs). It finds the accelerations' errors correlated (θ̈–φ̈ −0.5, ψ̈–φ̈
+    −0.7 on the sling), but a white-noise cross model correlates errors of the same
+    derivative order only (θ̈–φ̇ ≈ 0), and projected |F_S| holds no φ̈: its band is 93–97 %
+    θ̈'s, and what cancels in its error is θ̈'s against φ̇'s (measured −0.1 to −0.3 as state
+    errors), a shape of the deterministic motion. Measured (seeds 0–5; 6–11):
+    none 157 / 0 / 3 (158 / 0 / 2); white 155 / 0 / 5 (158 / 0 / 2), |F_R| RMS unchanged,
+    0.25–0.27 s; white plus the bias's cross terms ``b_a b_bᵀ`` 156 / 0 / 4
+    (157 / 0 / 3); dropped: cross-covariances with the correlation of the two angles'
+    bias series over the window (every derivative pair) 157 / 0 / 3 (157 / 0 / 3). What
+    keeps the three |F_S| cells wide is θ̈'s own band on the sling at low noise: mean z²
+    0.3–0.5 (paper 1000 fps 0.3°, small 60 fps 0.1°, 1000 fps 0.5°; 0.66–2.1 at 2°),
+    where ``α`` before its cap is 2–9 at every noise level: the white-jerk error of the
+    process share overstates a smooth motion's at a high bandwidth and understates it at a
+    low one, and ``α`` does not tell them apart.
     """
 
     noise: NoiseSearch = field(default_factory=NoiseSearch)
@@ -213,11 +238,15 @@ class SmoothSettings:
     band_variance: str = "calibrated"
     band_window: float = 2.0
     band_alpha_max: float = 1.0
+    band_cross: str = "none"
 
     def __post_init__(self):
         if self.band_variance not in BAND_VARIANCES:
             raise TrebuchetInputError(f"SmoothSettings: band_variance must be one of "
                                       f"{BAND_VARIANCES}, not {self.band_variance!r}")
+        if self.band_cross not in BAND_CROSS:
+            raise TrebuchetInputError(f"SmoothSettings: band_cross must be one of "
+                                      f"{BAND_CROSS}, not {self.band_cross!r}")
         if int(self.bias_iterations) != self.bias_iterations or self.bias_iterations < 1:
             raise TrebuchetInputError("SmoothSettings: bias_iterations must be an integer ≥ 1")
 
@@ -459,6 +488,55 @@ def _priors(
 # ----------------------------------------------------------------------------- main
 
 
+def _cross_process_share(steps: StepModel, filt: FilterResult, sm: SmootherResult,
+                         lam: np.ndarray, r2: np.ndarray, alpha: np.ndarray,
+                         window: float, k: int) -> dict[tuple[int, int], np.ndarray]:
+    """Cross-covariances {(a, b): (n, k, k)} of the angles' smoothing errors from their
+    process noises (``SmoothSettings.band_cross``): the share ``α (P − E0)`` of each angle
+    is the error of white noise ``α λ r² Q0`` through its smoother; two angles whose true
+    noises have the cross-covariance ``κ √(λ_a r²_a λ_b r²_b) Q0`` have the error
+    cross-covariance ``κ X_ab`` (``X_ab``:
+    :func:`~trebuchet.ingest.kalman_batch.error_cross_covariance` at ``κ = 1``). ``κ`` by
+    the same method of moments as ``α``: the backward sums have ``E[r_a r_bᵀ] = κ C_ab``
+    (measurement noises independent), so ``κ`` is the ratio of ``r_aᵀ S r_b`` to
+    ``tr(S C_ab)`` (``S = √(λ_a λ_b) Q0``) summed over the Gaussian window; then
+    ``ρ = κ / √(α_a α_b)`` is clipped to a valid (positive semi-definite) correlation."""
+    n, A = lam.shape[1], lam.shape[0]
+    pairs = [(a, b) for a in range(A) for b in range(a + 1, A)]
+    ia = np.array([p[0] for p in pairs])
+    ib = np.array([p[1] for p in pairs])
+
+    def part(index: np.ndarray) -> SmootherResult:
+        return SmootherResult(sm.x[:, index], sm.P[:, index], sm.r[:, index], sm.N[:, index])
+
+    level = np.sqrt(lam[ia] * r2[ia, None] * lam[ib] * r2[ib, None])  # (p, n)
+    noise = level.T[:, :, None, None] * steps.Q0[:, None]
+    X, C = error_cross_covariance(steps, filt.series(ia), part(ia), filt.series(ib),
+                                  part(ib), noise)
+    weight = np.sqrt(lam[ia] * lam[ib]).T[:, :, None, None] * steps.Q0[:, None]
+    seen = np.einsum("npi,npij,npj->np", sm.r[:, ia], weight, sm.r[:, ib])
+    expect = np.einsum("npij,npij->np", weight, C)
+    noisy = np.flatnonzero(steps.Q0[:, 0, 0] > 0)
+    tc = np.array([np.exp(np.mean(np.log(lam[a, noisy]))) ** (-1.0 / (2 * k))
+                   for a in range(A)])
+    rho = np.zeros((n, A, A))
+    for j, (a, b) in enumerate(pairs):
+        width = window * 0.5 * (tc[a] + tc[b])
+        num = gaussian_filter1d(seen[:, j], width, mode="constant")
+        den = gaussian_filter1d(expect[:, j], width, mode="constant")
+        scale = np.sqrt(alpha[a] * alpha[b])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = np.where((den > 0) & (scale > 0), num / den / scale, 0.0)
+        rho[:, a, b] = rho[:, b, a] = np.clip(np.nan_to_num(r), -1.0, 1.0)
+    rho[:, np.arange(A), np.arange(A)] = 1.0
+    w, v = np.linalg.eigh(rho)
+    rho = np.einsum("nij,nj,nkj->nik", v, np.clip(w, 0.0, None), v)
+    d = np.sqrt(np.clip(np.diagonal(rho, axis1=1, axis2=2), 1e-300, None))
+    rho = rho / (d[:, :, None] * d[:, None, :])
+    return {(a, b): (rho[:, a, b] * np.sqrt(alpha[a] * alpha[b]))[:, None, None] * X[:, j]
+            for j, (a, b) in enumerate(pairs)}
+
+
 def smooth(
     log: pd.DataFrame,
     *,
@@ -483,7 +561,10 @@ def smooth(
         or ``{angle: number}``; default: maximum likelihood.
     r : measurement-noise sd (rad), number or per angle; default: maximum likelihood.
     events : ``{"trigger": t, "release": t}`` in the log's time (s); a key present
-        overrides detection (``None``: no such event), an absent key is detected.
+        overrides detection (``None``: no such event), an absent key is detected. Given
+        times must lie inside the log and be ordered trigger < lift_off < release
+        (``lift_off`` is only checked and passed on); the refusal names the log's file
+        (``log.attrs["source"]``) and the event.
     backend : ``"numpy"`` (batched, default) or ``"filterpy"`` (final pass via filterpy).
     settings : :class:`SmoothSettings`.
 
@@ -501,6 +582,8 @@ def smooth(
     frame), ``cov``
     ({angle: (n, k, k) smoothed covariance of [angle, rate, acceleration(, jerk)] in SI,
     with the bias term of ``SmoothSettings.bias_band``, NaN outside the track}),
+    ``cross_cov`` ({(angle a, angle b): (n, k, k) ``E[e_a e_bᵀ]``, SI, 0 outside either
+    track}; empty unless ``SmoothSettings.band_cross`` is ``"white"``),
     ``model``, ``loglik`` (sum over angles), ``notes``.
 
     Raises
@@ -785,6 +868,7 @@ def smooth(
             Ps[:, a] = res["Ps"]
 
     band_scale = np.ones((A, n))
+    cross: dict[tuple[int, int], np.ndarray] = {}
     if settings.band_variance != "posterior":
         used = filt.series(np.arange(A))
         own = SmootherResult(sm.x[:, :A], sm.P[:, :A], sm.r[:, :A], sm.N[:, :A])
@@ -815,6 +899,10 @@ def smooth(
             alpha = np.clip(alpha, 0.0, settings.band_alpha_max)
             band_scale = alpha
             Ps = E0 + alpha.T[:, :, None, None] * (Ps - E0)
+            if settings.band_cross == "white" and A > 1:
+                cross = _cross_process_share(steps, used, own, lam_use,
+                                             np.array([e.r2 for e in est]), alpha,
+                                             settings.band_window, k)
     if settings.bias_band:
         used = filt.series(np.arange(A))
 
@@ -833,6 +921,7 @@ def smooth(
     scale = tau ** -np.arange(k)
     xs = xs * scale
     Ps = Ps * scale[:, None] * scale[None, :]
+    cross = {ab: c * scale[:, None] * scale[None, :] for ab, c in cross.items()}
     out = pd.DataFrame({"t": t}, index=log.index)
     cov = {}
     noise = {}
@@ -901,6 +990,15 @@ def smooth(
     out.attrs["event_sd"] = event_sd
     out.attrs["noise"] = noise
     out.attrs["cov"] = cov
+    cross_cov = {}
+    for (a, b), c in cross.items():
+        inside = np.zeros(n, bool)
+        ok_a, ok_b = np.flatnonzero(valid[a]), np.flatnonzero(valid[b])
+        inside[max(ok_a[0], ok_b[0]):min(ok_a[-1], ok_b[-1]) + 1] = True
+        c = c.copy()
+        c[~inside] = 0.0
+        cross_cov[(tracked[a], tracked[b])] = c
+    out.attrs["cross_cov"] = cross_cov
     out.attrs["model"] = model
     out.attrs["loglik"] = loglik
     out.attrs["notes"] = notes
