@@ -438,7 +438,9 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     scene : the engine filmed (a :class:`~trebuchet.model.scene.Scene` or a scene file).
     fps, columns, points, min_likelihood : as for ``read_log``.
     events : ``{"trigger", "lift_off", "release"}`` in the log's time (s), overriding
-        detection; None = no such event in the log.
+        detection; None = no such event in the log. A given time must lie inside the log
+        and the given ones be ordered trigger < lift_off < release, else
+        ``TrebuchetInputError`` naming the log file and the event.
     form : "projected" (default) or "direct"; trough : "constraint" (default) or
         "measured" (see the module doc); they override ``options``.
     q, r : the smoother's process noise and measurement noise sd (rad), per angle or one
