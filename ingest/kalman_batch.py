@@ -331,6 +331,11 @@ def smoothed_states(steps: StepModel, filt: FilterResult, valid: np.ndarray) -> 
     """Smoothed states ``x^s`` (n, B, k) only: the ``r`` half of :func:`backward_smoother`
     (``r_{i-1} = Hᵀ ν_i / S_i + L_iᵀ r_i``, ``x^s_i = xp_i + Pp_i r_{i-1}``), without the
     covariances, at a fraction of its cost."""
+    return filt.xp + np.einsum("nbij,nbj->nbi", filt.Pp, backward_sums(steps, filt, valid))
+
+
+def backward_sums(steps: StepModel, filt: FilterResult, valid: np.ndarray) -> np.ndarray:
+    """The backward sums ``r`` (n, B, k) of :func:`backward_smoother` only."""
     n, B, k = filt.xp.shape
     valid = np.asarray(valid, dtype=bool)
     F_next = steps.F[1:]
@@ -344,7 +349,38 @@ def smoothed_states(steps: StepModel, filt: FilterResult, valid: np.ndarray) -> 
             r = r @ L[i]
         r[:, 0, 0] += nu_S[i]
         rs[i] = r[:, 0]
-    return filt.xp + np.einsum("nbij,nbj->nbi", filt.Pp, rs)
+    return rs
+
+
+def simulated_model_runs(steps: StepModel, noise: np.ndarray, kick: np.ndarray,
+                         r2: np.ndarray, prior: np.ndarray, rng: np.random.Generator
+                         ) -> np.ndarray:
+    """Measurements (B, n) drawn from the state-space model itself: the first state of
+    ``x_i = F_i x_{i-1} + w_i``, ``w_i ~ N(0, noise[b] Q0_i + kick[b] G_i)`` (``noise``
+    (B, n), ``kick`` (B,)), ``x_0 ~ N(0, prior[b])`` (B, k, k), plus white measurement
+    noise of variance ``r2`` (B,) (0: none)."""
+    n, k = steps.n, steps.k
+    B = noise.shape[0]
+
+    def root(C: np.ndarray) -> np.ndarray:
+        w, v = np.linalg.eigh(C)
+        return v * np.sqrt(np.clip(w, 0.0, None))[..., None, :]
+
+    q_root = root(steps.Q0)  # (n, k, k)
+    g_root = root(steps.G)  # nonzero at the events only
+    x = np.einsum("bij,bj->bi", root(np.asarray(prior, float)), rng.standard_normal((B, k)))
+    FT = np.ascontiguousarray(np.swapaxes(steps.F, 1, 2))
+    w = (np.sqrt(np.asarray(noise, float).T)[:, :, None]
+         * np.einsum("nij,nbj->nbi", q_root, rng.standard_normal((n, B, k))))
+    events = np.flatnonzero(np.any(steps.G != 0.0, axis=(1, 2)))
+    w[events] += (np.sqrt(np.asarray(kick, float))[None, :, None]
+                  * np.einsum("nij,nbj->nbi", g_root[events],
+                              rng.standard_normal((events.size, B, k))))
+    z = np.empty((B, n))
+    for i in range(n):
+        x = x @ FT[i] + w[i]
+        z[:, i] = x[:, 0]
+    return z + np.sqrt(np.asarray(r2, float))[:, None] * rng.standard_normal((B, n))
 
 
 def refiltered(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.ndarray,

@@ -351,8 +351,36 @@ def test_calibrated_band_shrinks_only_where_the_data_show_less_jerk_than_the_mod
     assert np.mean(np.abs(cal["theta_dd"] - truth[:, 2]) <= 2 * cal["theta_dd_sd"]) > 0.85
 
 
+def test_residual_calibration_drops_the_process_share_of_a_slow_swing():
+    """``band_alpha_from="residual"``: the slow swing of the test above, smoothed with a
+    q a thousand times too large, leaves almost nothing of the model's process noise in
+    its smoothing residual (α ≈ 0 on most frames, the band still holds the truth); data
+    drawn from the smoother's own model at 30× the smoother's q show it (α well above 0,
+    capped at the likelihood's maximum over the q used: 1 with q given)."""
+    rng = np.random.default_rng(11)
+    t = np.arange(0.0, 3.0, 1.0 / 120.0)
+    noise = np.radians(0.3)
+    events = {"trigger": None, "release": None}
+    w = 2 * np.pi * 0.4
+    x, x_dd = 0.5 * np.sin(w * t), -0.5 * w**2 * np.sin(w * t)
+    log = pd.DataFrame({"t": t, "theta": x + rng.normal(0.0, noise, t.size),
+                        "psi": np.nan, "phi": np.nan})
+    residual = SmoothSettings(band_alpha_from="residual")
+    cal = smooth(log, events=events, q=1e3, r=noise, settings=residual)
+    scale = cal.attrs["noise"]["theta"]["band_scale"]
+    assert np.median(scale) < 0.2 and scale.max() <= 1.0
+    assert np.mean(np.abs(cal["theta_dd"] - x_dd) <= 2 * cal["theta_dd_sd"]) > 0.95
+    truth = _white_jerk(rng, t, 30.0)
+    log = pd.DataFrame({"t": t, "theta": truth[:, 0] + rng.normal(0.0, noise, t.size),
+                        "psi": np.nan, "phi": np.nan})
+    cal = smooth(log, events=events, q=1.0, r=noise, settings=residual)
+    assert np.median(cal.attrs["noise"]["theta"]["band_scale"]) > 0.6
+    assert cal.attrs["noise"]["theta"]["band_scale"].max() <= 1.0
+
+
 @pytest.mark.parametrize("bad", [{"band_variance": "wide"}, {"bias_iterations": 0},
-                                 {"bias_iterations": 1.5}])
+                                 {"bias_iterations": 1.5}, {"band_alpha_from": "guess"},
+                                 {"band_draws": 0}])
 def test_band_settings_are_checked(bad):
     with pytest.raises(TrebuchetInputError):
         SmoothSettings(**bad)

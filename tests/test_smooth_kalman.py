@@ -8,11 +8,13 @@ import pytest
 from trebuchet.ingest.kalman_batch import (
     StepModel,
     backward_smoother,
+    backward_sums,
     batch_kalman_filter,
     error_covariance,
     error_cross_covariance,
     polynomial_transition,
     refiltered,
+    simulated_model_runs,
     smoothed_states,
     white_noise_covariance,
 )
@@ -213,3 +215,35 @@ def test_error_cross_covariance_of_two_smoothers_matches_simulation():
         assert np.max(np.abs(corr_seen - corr_want)) < 0.08, (j, corr_seen, corr_want)
     # the accelerations' errors: a real correlation, which the formula reproduces
     assert np.median(want[100:, 2, 2] / (sd_a[100:, 2] * sd_b[100:, 2])) < -0.3
+
+
+def test_backward_sums_are_the_smoothers():
+    steps, z, valid, x0, P0 = _case(3)
+    filt = batch_kalman_filter(z[None], valid[None], steps, np.array([1e-3]), np.array([0.5]),
+                               np.array([1.0]), x0[None], P0[None], store=True)
+    sm = backward_smoother(steps, filt, valid[None])
+    np.testing.assert_allclose(backward_sums(steps, filt, valid[None]), sm.r, rtol=1e-12,
+                               atol=1e-15)
+
+
+def test_simulated_model_runs_have_the_models_covariance():
+    """Draws of the state-space model: the variance of the measured component at every
+    frame against the exact propagation ``P_i = F P Fᵀ + λ Q0_i + kick G_i`` (+ r2)."""
+    k = 3
+    steps, _, _, _, P0 = _case(k, n=200)
+    runs = 4000
+    lam, kick, r2 = 2e-3, 0.5, 0.3
+    z = simulated_model_runs(steps, np.full((runs, steps.n), lam), np.full(runs, kick),
+                             np.full(runs, r2), np.broadcast_to(P0, (runs, k, k)),
+                             np.random.default_rng(3))
+    P = P0.copy()
+    want = np.empty(steps.n)
+    for i in range(steps.n):
+        P = steps.F[i] @ P @ steps.F[i].T + lam * steps.Q0[i] + kick * steps.G[i]
+        want[i] = P[0, 0] + r2
+    rel = z.var(axis=0) / want
+    assert np.all(np.abs(rel - 1.0) < 0.1), (rel.min(), rel.max())
+    assert np.all(np.abs(z.mean(axis=0)) < 4 * np.sqrt(want / runs))
+    quiet = simulated_model_runs(steps, np.zeros((2, steps.n)), np.zeros(2), np.zeros(2),
+                                 np.zeros((2, k, k)), np.random.default_rng(3))
+    assert np.all(quiet == 0.0)
