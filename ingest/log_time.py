@@ -66,6 +66,32 @@ def check_time(path: str | Path, t: np.ndarray, rows: np.ndarray, label: str) ->
         )
 
 
+#: Frame rates (1/s) a filmed shot can have; outside them the time unit is wrong.
+FRAME_RATE_RANGE = (5.0, 1e5)
+
+
+def check_frame_rate(path: str | Path, t: np.ndarray, label: str, fps: float | None) -> None:
+    """Error for times whose frame rate no film of a shot has (a time column in ms under an
+    ``s`` header, or the other way round), and for a given ``fps`` that the log's own times
+    contradict by more than 5 %. ``t`` in s, sorted."""
+    steps = np.diff(t[np.isfinite(t)])
+    steps = steps[steps > 0]
+    if not steps.size:
+        return
+    rate = 1.0 / float(np.median(steps))
+    low, high = FRAME_RATE_RANGE
+    if not low <= rate <= high:
+        hint = "ms" if rate < low else "s"
+        raise TrebuchetInputError(
+            f"{path}, column '{label}': the frames lie {1.0 / rate:.3g} s apart ({rate:.3g} "
+            f"fps), which no film of a shot has; if the times are in {hint}, say so in the "
+            f"header, e.g. '{label.split('(')[0].split('[')[0].strip() or 't'} ({hint})'")
+    if fps is not None and abs(rate / fps - 1.0) > 0.05:
+        raise TrebuchetInputError(
+            f"{path}: fps={fps:g} disagrees with the log's times in column '{label}', whose "
+            f"frames come {rate:.4g} per s; correct fps or leave it out")
+
+
 def snap_rounded_times(
     path: str | Path, t: np.ndarray, rows: np.ndarray, fps: float | None, step: float
 ) -> tuple[np.ndarray, float | None, str | None]:

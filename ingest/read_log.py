@@ -41,11 +41,13 @@ from .log_repairs import (
     unwrap_angles,
 )
 from .log_table import read_text, split_lines
-from .log_time import check_fps, check_time
+from .log_time import check_fps, check_frame_rate, check_time
 from .parsed_log import LogSource, ParsedLog
 
 #: Fewest frames with all three angles that a log must have.
 MIN_FRAMES = 10
+#: rad: an angle further from zero than two turns is no shot's (degrees read as rad, most likely).
+MAX_ANGLE = 4.0 * math.pi
 
 #: Default likelihood below which a DeepLabCut position is treated as missing.
 MIN_LIKELIHOOD = 0.9
@@ -109,11 +111,20 @@ def read_log(
     numbered = split_lines(read_text(path))
     source = _read_source(path, numbered, fps, float(min_likelihood))
     check_time(path, source.t, source.rows, source.time_label)
+    check_frame_rate(path, source.t, source.time_label, fps)
     log = _choose_angles(path, source, mapping, points)
     for angle in ANGLES:
-        if np.isnan(log.angles[angle]).all():
+        values = log.angles[angle]
+        if np.isnan(values).all():
             raise TrebuchetInputError(
                 f"{path}, column '{log.labels[angle]}': no value at all (for {angle})"
+            )
+        largest = float(np.nanmax(np.abs(values)))
+        if largest > MAX_ANGLE:
+            raise TrebuchetInputError(
+                f"{path}, column '{log.labels[angle]}': {angle} reaches {largest:.4g} rad, more "
+                "than two turns from zero, which no shot turns; if the column holds degrees, "
+                f"say so in its header, e.g. '{angle} (deg)'"
             )
     repairs = list(log.repairs)
     for step in (drop_rows_without_angles, merge_duplicate_times):

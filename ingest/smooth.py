@@ -704,6 +704,9 @@ def smooth(
     for a in ANGLES:
         if a not in tracked:
             notes.append(f"{a}: not tracked (all NaN); its columns are NaN")
+            warnings.warn(TrebuchetDataWarning(
+                f"{log_name(log)}: {a} is not tracked (no value at all): its rate, "
+                "acceleration and every load that needs it are NaN"), stacklevel=2)
 
     n = t.size
     tau = float(np.median(np.diff(t)))

@@ -249,3 +249,28 @@ def test_mangled_fixtures_give_a_table_or_our_error_and_nothing_else(tmp_path):
             assert np.all(np.diff(df["t"]) > 0)
             outcomes["table"] += 1
     assert outcomes["table"] > 20 and outcomes["error"] > 20, outcomes
+
+
+def test_degrees_under_a_header_without_unit_are_refused(tmp_path):
+    """Without a unit the angles are rad; degree values are far beyond any shot's turns."""
+    rows = good_rows()
+    text = "t,theta,psi,phi\n" + "\n".join(rows) + "\n"
+    msg = error_of(write(tmp_path, text))
+    assert "shot.csv" in msg and "column 'theta'" in msg and "(deg)" in msg
+    radians = "t,theta,psi,phi\n" + "\n".join(
+        f"{k / 100:.2f},{np.radians(-50 + k):.5f},{np.radians(-90 + 2 * k):.5f},"
+        f"{np.radians(-180 + 3 * k):.5f}" for k in range(12)) + "\n"
+    assert len(read_log(write(tmp_path, radians, "rad.csv"))) == 12
+
+
+def test_times_in_ms_under_a_seconds_header_are_refused(tmp_path):
+    rows = [f"{k * 10},{-50 + k:.1f},{-90 + 2 * k:.1f},{-180 + 3 * k:.1f}" for k in range(12)]
+    msg = error_of(write(tmp_path, HEADER + "\n" + "\n".join(rows) + "\n"))
+    assert "column 't (s)'" in msg and "0.1 fps" in msg and "(ms)" in msg
+
+
+def test_a_frame_rate_the_times_contradict_is_refused(tmp_path):
+    path = write(tmp_path, HEADER + "\n" + "\n".join(good_rows()) + "\n")
+    msg = error_of(path, fps=10)
+    assert "fps=10" in msg and "100 per s" in msg
+    assert len(read_log(path, fps=100)) == 12  # the rate the times have: fine

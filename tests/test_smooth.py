@@ -158,7 +158,8 @@ def test_overrides_are_respected():
 def test_untracked_angle_gives_nan_columns():
     log, _ = synthetic_log(120, 0.5, seed=12)
     log["phi"] = np.nan
-    est = smooth(log)
+    with pytest.warns(TrebuchetDataWarning, match="phi is not tracked"):
+        est = smooth(log)
     assert est[["phi", "phi_d_sd"]].isna().all().all()
     assert est["theta_dd"].notna().all()
     assert "phi" not in est.attrs["noise"]
