@@ -407,6 +407,12 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     scene = as_scene(scene, "compare")
     say = progress or (lambda message: None)
     name = Path(str(log_or_path)).name if not isinstance(log_or_path, pd.DataFrame) else "log"
+    if isinstance(log_or_path, str | Path):  # read first: a bad log is refused before progress
+        from .read_log import read_log
+
+        keys = ("fps", "columns", "points", "min_likelihood")
+        log_or_path = read_log(log_or_path, **{k: reconstruct_options.pop(k) for k in keys
+                                               if k in reconstruct_options})
     say(f"reconstructing the loads of {name}")
     measured = reconstruct(log_or_path, scene, **reconstruct_options)
     say(f"simulating {scene.source} at the log's {len(measured)} frames")

@@ -165,3 +165,14 @@ def test_compare_and_forces_refuse_before_their_progress_lines(tmp_path, capsys)
     log = HORSDAL.parent / "horsdal_240fps.csv"
     _refused(capsys, ["forces", str(log), "--scene", str(HORSDAL), "-o", str(tmp_path)],
              "folder")
+
+
+def test_compare_refuses_a_bad_log_before_its_progress_lines(tmp_path, capsys):
+    lines = (HORSDAL.parent / "horsdal_240fps.csv").read_text(encoding="utf-8").splitlines()
+    cells = lines[20].split(",")
+    cells[1] = "abc"
+    lines[20] = ",".join(cells)
+    bad = tmp_path / "shot.csv"
+    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    _refused(capsys, ["compare", str(bad), "--scene", str(HORSDAL), "-o", str(tmp_path / "r")],
+             "shot.csv", "row", "'abc'")
