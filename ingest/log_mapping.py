@@ -98,6 +98,10 @@ def resolve(
         if not matches:
             low = name.strip().lower()
             matches = [c for c in candidates if low in {a.lower() for a in c.aliases}]
+        if not matches and not candidates and what == "column":
+            raise TrebuchetInputError(
+                f"{path}: no column named {name!r}: the file holds point positions, not "
+                "angle columns; map its points with points= (--point pivot=NAME ...)")
         if not matches:
             raise TrebuchetInputError(f"{path}: no {what} named {name!r} ({what}s found: {found})")
         if len(matches) > 1:

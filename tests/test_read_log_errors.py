@@ -274,3 +274,9 @@ def test_a_frame_rate_the_times_contradict_is_refused(tmp_path):
     msg = error_of(path, fps=10)
     assert "fps=10" in msg and "100 per s" in msg
     assert len(read_log(path, fps=100)) == 12  # the rate the times have: fine
+
+
+def test_columns_on_a_file_of_points_point_to_points(tmp_path):
+    dlc = Path(__file__).parents[1] / "data_samples" / "horsdal_dlc.csv"
+    msg = error_of(dlc, fps=120, columns={"axle": "theta"})
+    assert "'axle'" in msg and "point positions" in msg and "points=" in msg
