@@ -190,6 +190,13 @@ def _choose_angles(
                     f"use points= instead of columns="
                 )
             raise missing_angle_error(path, angle, source.angle_columns)
+    used = {chosen[a].label for a in ANGLES}
+    unused = [c.label for c in source.angle_columns if c.label not in used]
+    repairs = list(source.repairs)
+    if unused and source.fmt == "generic":  # nothing is dropped unsaid (a tracking tool's
+        # export holds rates and accelerations beside each angle: those are not news)
+        repairs.append(f"column(s) {', '.join(repr(u) for u in unused)} not used (no angle "
+                       "of the shot; map one with columns= if it is)")
     return ParsedLog(
         fmt=source.fmt,
         t=source.t,
@@ -198,7 +205,7 @@ def _choose_angles(
         labels={a: chosen[a].label for a in ANGLES},
         frame=source.frame,
         fps=source.fps,
-        repairs=list(source.repairs),
+        repairs=repairs,
     )
 
 

@@ -280,3 +280,11 @@ def test_columns_on_a_file_of_points_point_to_points(tmp_path):
     dlc = Path(__file__).parents[1] / "data_samples" / "horsdal_dlc.csv"
     msg = error_of(dlc, fps=120, columns={"axle": "theta"})
     assert "'axle'" in msg and "point positions" in msg and "points=" in msg
+
+
+def test_a_column_that_is_no_angle_is_reported_not_dropped_silently(tmp_path):
+    rows = [r + ",first try" for r in good_rows()]
+    path = write(tmp_path, HEADER + ",note\n" + "\n".join(rows) + "\n")
+    with pytest.warns(TrebuchetDataWarning, match="'note' not used"):
+        log = read_log(path)
+    assert any("'note' not used" in r for r in log.attrs["repairs"])
