@@ -455,13 +455,7 @@ def error_covariance(steps: StepModel, filt: FilterResult, sm: SmootherResult,
     wterm = np.swapaxes(NW, 2, 3) @ noise[1:] @ NW
     drive_b = r2[None, :, None, None] * c[..., :, None] * c[..., None, :]
     drive_b[:-1] += wterm
-    drive_b = drive_b.reshape(n, B, kk)
-    U = np.empty((n, B, kk))
-    u = drive_b[n - 1].copy()
-    U[n - 1] = u
-    for i in range(n - 2, -1, -1):
-        u = (u[:, None, :] @ LL[i])[:, 0] + drive_b[i]
-        U[i] = u
+    U = _accumulate_backward(drive_b.reshape(n, B, kk), LL)
     Pp = filt.Pp
     M = np.eye(k) - Pp @ N
     Pi = Pi.reshape(n, B, k, k)
@@ -511,16 +505,23 @@ def error_cross_covariance(steps: StepModel, filt_a: FilterResult, sm_a: Smoothe
     NLb = sm_b.N[1:] @ Lb
     drive_b = np.zeros((n, B, k, k))
     drive_b[:-1] = np.swapaxes(NLa, 2, 3) @ W[1:] @ NLb
-    drive_b = drive_b.reshape(n, B, kk)
-    U = np.empty((n, B, kk))
-    u = drive_b[n - 1].copy()
-    U[n - 1] = u
-    for i in range(n - 2, -1, -1):
-        u = (u[:, None, :] @ LL[i])[:, 0] + drive_b[i]
-        U[i] = u
+    U = _accumulate_backward(drive_b.reshape(n, B, kk), LL)
     Pi = Pi.reshape(n, B, k, k)
     U = U.reshape(n, B, k, k)
     Ma = np.eye(k) - filt_a.Pp @ sm_a.N
     Mb = np.eye(k) - filt_b.Pp @ sm_b.N
     err = Ma @ Pi @ np.swapaxes(Mb, 2, 3) + filt_a.Pp @ U @ filt_b.Pp
     return err, sm_a.N @ Pi @ sm_b.N + U
+
+
+def _accumulate_backward(drive: np.ndarray, LL: np.ndarray) -> np.ndarray:
+    """``U_i = drive_i + U_{i+1} LL_i`` from the last step back (rows (B, k²) per step): the
+    backward sums of the smoother's error recursions."""
+    n = drive.shape[0]
+    U = np.empty_like(drive)
+    u = drive[n - 1].copy()
+    U[n - 1] = u
+    for i in range(n - 2, -1, -1):
+        u = (u[:, None, :] @ LL[i])[:, 0] + drive[i]
+        U[i] = u
+    return U
