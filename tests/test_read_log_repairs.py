@@ -168,3 +168,15 @@ def test_rows_without_any_angle_are_dropped_and_reported(tmp_path):
     df, messages = read_warned(write(tmp_path, t, a, b, c))
     assert len(df) == 28
     assert any("dropped 2 rows without any angle (rows 5, 10)" in m for m in messages)
+
+
+def test_kinovea_times_in_whole_ms_are_put_back_on_a_fitted_frame_grid():
+    """Without fps the 240 fps frames rounded to whole ms (steps of 4 and 5 ms) come back on
+    one grid, and the log's rate is the film's, not 250 fps of the commonest step."""
+    sample = Path(__file__).parents[1] / "data_samples" / "horsdal_kinovea.csv"
+    points = {"pivot": "axle", "spigot": "tip", "hinge": "hinge", "counterweight": "Weight",
+              "projectile": "Stone"}
+    with pytest.warns(TrebuchetDataWarning, match="fitted frame grid at 2(39.9|40.0)"):
+        log = read_log(sample, points=points)
+    steps = np.diff(log["t"].to_numpy())
+    assert 1.0 / np.median(steps) == pytest.approx(240.0, rel=1e-3)
