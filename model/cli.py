@@ -84,8 +84,7 @@ def _paper(args: argparse.Namespace) -> int:
         check_target(args.output)
     scene = Scene.from_toml(args.scene) if args.scene else None
     table = paper_comparison(scene)
-    paper = Scene.from_toml(horsdal_scene_path())
-    if scene is not None and scene.engine != paper.engine:
+    if scene is not None and scene.engine != Scene.from_toml(horsdal_scene_path()).engine:
         print(f"trebuchet: note: {args.scene} is not the engine of the paper's Table 1; its "
               "numbers are set beside the paper's all the same", file=sys.stderr)
     print(format_paper_table(table, markdown=args.markdown))

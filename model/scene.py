@@ -58,14 +58,14 @@ class Engine:
     def __post_init__(self) -> None:
         """Refuse what no engine can be, also where a program builds or ``replace``-s one (a
         scene file's reader names the file and key before it gets here)."""
-        for name, least in (("L1", 0.0), ("L2", 0.0), ("L3", 0.0), ("m_b", 0.0), ("M", 0.0),
-                            ("I", 0.0), ("L4", None), ("m", None)):
+        positive = ("L1", "L2", "L3", "m_b", "M", "I")
+        for name in (*positive, "L4", "m"):  # no sling or projectile in a dry fire: 0
             value = getattr(self, name)
             if not (isinstance(value, numbers.Real) and math.isfinite(value)):
                 raise TrebuchetInputError(f"Engine: {name} = {value!r}: must be a finite number")
-            if (value <= 0.0) if least is not None else (value < 0.0):
+            if value < 0.0 or (value == 0.0 and name in positive):
                 raise TrebuchetInputError(f"Engine: {name} = {value:g}: must be "
-                                          + ("positive" if least is not None else
+                                          + ("positive" if name in positive else
                                              "zero or positive"))
         if not -self.L2 <= self.L_CM <= self.L1:
             raise TrebuchetInputError(f"Engine: L_CM = {self.L_CM!r} m: must lie on the beam, "

@@ -61,8 +61,6 @@ def check_target(target: str | Path, folder: bool = False) -> Path:
             (target / OUTPUT_MARKER).is_file() or (target / "index.html").is_file()):
         raise TrebuchetInputError(f"{target}: the folder holds other files and no earlier "
                                   "output of trebuchet; give a new or empty folder")
-    if target.parent.exists() and not target.parent.is_dir():
-        raise TrebuchetInputError(f"{target}: {target.parent} is a file, not a folder")
     _probe(target)
     return target
 
