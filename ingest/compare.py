@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import TrebuchetInputError, check_choice
 from trebuchet.model.figures_draw import BAND_SD, shot_events
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import Trajectory, integrate, simulate
@@ -109,14 +109,10 @@ class CompareOptions:
     rtol: float | str = "default"
 
     def __post_init__(self) -> None:
-        if self.align not in ALIGN_MODES:
-            raise TrebuchetInputError(f"compare: align must be one of {ALIGN_MODES}, "
-                                      f"not {self.align!r}")
+        check_choice("compare", "align", self.align, ALIGN_MODES)
         if not (math.isfinite(self.max_lag) and self.max_lag > 0):
             raise TrebuchetInputError(f"compare: max_lag = {self.max_lag!r} must be > 0 s")
-        if self.release not in RELEASE_MODES:
-            raise TrebuchetInputError(f"compare: release must be one of {RELEASE_MODES}, "
-                                      f"not {self.release!r}")
+        check_choice("compare", "release", self.release, RELEASE_MODES)
         if not (math.isfinite(self.band_sd) and self.band_sd > 0):
             raise TrebuchetInputError(f"compare: band_sd = {self.band_sd!r} must be > 0")
 
@@ -143,9 +139,7 @@ def release_rule(scene: Scene, log_release: float | None, mode: str = "auto"
     ``mode``: "auto" replaces a time rule by the log's release and keeps a velocity-angle
     rule; "log" always takes the log's release; "scene" keeps the scene's rule.
     """
-    if mode not in RELEASE_MODES:
-        raise TrebuchetInputError(f"compare: release must be one of {RELEASE_MODES}, "
-                                  f"not {mode!r}")
+    check_choice("compare", "release", mode, RELEASE_MODES)
     rel = scene.release
     own = ", ".join(
         ([f"time {rel.time:.4g} s"] if rel.time is not None else [])

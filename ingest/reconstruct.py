@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import ndtr
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, check_choice
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.forces import loads
 from trebuchet.model.scene import Scene, as_scene
@@ -147,15 +147,9 @@ class ReconstructOptions:
     preset: str = "default"
 
     def __post_init__(self) -> None:
-        if self.preset not in PRESETS:
-            raise TrebuchetInputError(f"reconstruct: preset must be one of "
-                                      f"{tuple(PRESETS)}, not {self.preset!r}")
-        if self.form not in FORMS:
-            raise TrebuchetInputError(f"reconstruct: form must be one of {FORMS}, "
-                                      f"not {self.form!r}")
-        if self.trough not in TROUGH:
-            raise TrebuchetInputError(f"reconstruct: trough must be one of {TROUGH}, "
-                                      f"not {self.trough!r}")
+        check_choice("reconstruct", "preset", self.preset, tuple(PRESETS))
+        check_choice("reconstruct", "form", self.form, FORMS)
+        check_choice("reconstruct", "trough", self.trough, TROUGH)
         if not (np.isfinite(self.event_sd_frames) and self.event_sd_frames >= 0):
             raise TrebuchetInputError("reconstruct: event_sd_frames must be ≥ 0")
 

@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import gaussian_filter1d
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError, check_choice
 
 from .events import (
     ReleaseSearch,
@@ -284,15 +284,9 @@ class SmoothSettings:
     band_alpha_sd: float = 0.25
 
     def __post_init__(self):
-        if self.band_variance not in BAND_VARIANCES:
-            raise TrebuchetInputError(f"SmoothSettings: band_variance must be one of "
-                                      f"{BAND_VARIANCES}, not {self.band_variance!r}")
-        if self.band_cross not in BAND_CROSS:
-            raise TrebuchetInputError(f"SmoothSettings: band_cross must be one of "
-                                      f"{BAND_CROSS}, not {self.band_cross!r}")
-        if self.band_alpha_from not in BAND_ALPHA_FROM:
-            raise TrebuchetInputError(f"SmoothSettings: band_alpha_from must be one of "
-                                      f"{BAND_ALPHA_FROM}, not {self.band_alpha_from!r}")
+        check_choice("SmoothSettings", "band_variance", self.band_variance, BAND_VARIANCES)
+        check_choice("SmoothSettings", "band_cross", self.band_cross, BAND_CROSS)
+        check_choice("SmoothSettings", "band_alpha_from", self.band_alpha_from, BAND_ALPHA_FROM)
         if int(self.band_draws) != self.band_draws or self.band_draws < 1:
             raise TrebuchetInputError("SmoothSettings: band_draws must be an integer ≥ 1")
         if int(self.bias_iterations) != self.bias_iterations or self.bias_iterations < 1:

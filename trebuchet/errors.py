@@ -12,6 +12,14 @@ class TrebuchetInputError(ValueError):
     """Bad input from the user: the message names file, row or key and the problem."""
 
 
+def check_choice(owner: str, name: str, value: object, options: tuple) -> None:
+    """Refuse ``value`` of the setting ``name`` unless it is one of ``options``: the message
+    names ``owner`` (the function or settings class), the setting and the choices."""
+    if value not in options:
+        raise TrebuchetInputError(f"{owner}: {name} must be one of {tuple(options)}, "
+                                  f"not {value!r}")
+
+
 class TrebuchetDataWarning(UserWarning):
     """A repair made to user data (dropped duplicate frame, filled gap, unwrapped angle)."""
 
