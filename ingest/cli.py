@@ -124,7 +124,8 @@ def _fmt_time(value: float | None, sd: float | None = None) -> str:
 
 def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     """The summary the command prints: log, noise per angle, events, repairs, peak loads
-    with their sd, advisories and validity findings."""
+    with their sd, advisories, validity findings and notes (e.g. a log without rest, whose
+    ``t_shot`` counts from its first row)."""
     a = result.attrs
     lines = [f"log: {a.get('source', 'log')} ({a.get('format', 'table')}), {len(result)} rows, "
              f"{a.get('fps', float('nan')):.4g} fps; formulas: {a.get('form')}"]
@@ -151,7 +152,8 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
         i = np.flatnonzero(ok)[np.argmax(v[ok])]
         lines.append(f"  {label:7s}{v[i]:11.4g} ± {result[col + '_sd'].to_numpy()[i]:.3g} "
                      f"{unit} at t = {t[i]:.4f} s")
-    for key, title in (("advisories", "resolution advisory"), ("validity", "model validity")):
+    for key, title in (("advisories", "resolution advisory"), ("validity", "model validity"),
+                       ("notes", "notes")):
         items = a.get(key, [])
         if items:
             lines.append(f"{title}:")

@@ -92,6 +92,31 @@ def check_frame_rate(path: str | Path, t: np.ndarray, label: str, fps: float | N
             f"frames come {rate:.4g} per s; correct fps or leave it out")
 
 
+def decimal_rounding(t: np.ndarray, period_fraction: float = 1e-3) -> float | None:
+    """The step (s) the times were rounded to when it blurs the frame period, else None.
+
+    Times written with a few decimals (Tracker's 0.0083/0.0084 s at 120 fps) are whole
+    multiples of a power of ten; when that step exceeds ``period_fraction`` of the median
+    frame period and the single-frame steps differ, the rounding shows in the frame rate
+    (120.5 fps from the median step). Times on an exact grid (0.01 s at 100 fps) or
+    written to 10 µs or finer give None.
+    """
+    tv = t[np.isfinite(t)]
+    dt = np.diff(tv)
+    dt = dt[dt > 0]
+    if tv.size < 3 or not dt.size:
+        return None
+    period = float(np.median(dt))
+    single = dt[np.abs(dt / period - 1.0) < 0.5]
+    if np.ptp(single) <= 1e-9 * period:
+        return None
+    for decimals in range(6):
+        step = 10.0**-decimals
+        if np.abs(tv / step - np.round(tv / step)).max() < 1e-6:
+            return step if step > period_fraction * period else None
+    return None
+
+
 def snap_rounded_times(
     path: str | Path, t: np.ndarray, rows: np.ndarray, fps: float | None, step: float
 ) -> tuple[np.ndarray, float | None, str | None]:

@@ -41,7 +41,13 @@ from .log_repairs import (
     unwrap_angles,
 )
 from .log_table import read_text, split_lines
-from .log_time import check_fps, check_frame_rate, check_time
+from .log_time import (
+    check_fps,
+    check_frame_rate,
+    check_time,
+    decimal_rounding,
+    snap_rounded_times,
+)
 from .parsed_log import LogSource, ParsedLog
 
 #: Fewest frames with all three angles that a log must have.
@@ -112,6 +118,7 @@ def read_log(
     source = _read_source(path, numbered, fps, float(min_likelihood))
     check_time(path, source.t, source.rows, source.time_label)
     check_frame_rate(path, source.t, source.time_label, fps)
+    _snap_decimal_times(path, source)
     log = _choose_angles(path, source, mapping, points)
     for angle in ANGLES:
         values = log.angles[angle]
@@ -156,6 +163,20 @@ def _read_source(
     if looks_like_kinovea(numbered):
         return read_kinovea(path, numbered, fps)
     return read_generic(path, numbered, fps)
+
+
+def _snap_decimal_times(path: str | Path, source: LogSource) -> None:
+    """Times written with too few decimals (Tracker's 4) go back on a fitted frame grid,
+    with a repair note; Kinovea's whole milliseconds are handled by its reader."""
+    if source.frame is not None or source.fmt == "kinovea":
+        return
+    step = decimal_rounding(source.t)
+    if step is None:
+        return
+    t, _, note = snap_rounded_times(path, source.t, source.rows, None, step)
+    source.t = t
+    if note:
+        source.repairs.append(note)
 
 
 def _choose_angles(

@@ -57,6 +57,18 @@ def test_given_events_are_used(shot_file, tmp_path, capsys):
     assert 2 not in phase  # no lift-off: the projectile stays in the trough until release
 
 
+def test_a_log_starting_mid_swing_says_where_t_shot_counts_from(shot_file, tmp_path, capsys):
+    _, renamed, truth = shot_file
+    late = renamed[renamed["t"] > truth.attrs["events"]["trigger"] + 0.3]
+    path = tmp_path / "late.csv"
+    write_log(late.rename(columns={"beam": "theta", "arm": "psi", "sling": "phi"}), path)
+    out = tmp_path / "loads.csv"
+    assert main(["forces", str(path), "--scene", str(HORSDAL), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "notes:" in text and "t_shot counts from the first frame" in text
+    assert pd.read_csv(out)["t_shot"].iloc[0] == 0.0
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--column", "beam=omega"], "'omega' is not one of theta, psi, phi"),
     (["--column", "beam"], "expected NAME=ANGLE"),

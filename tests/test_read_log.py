@@ -96,6 +96,34 @@ def test_generic_decimal_comma_with_semicolons_and_greek_names(tmp_path):
     np.testing.assert_allclose(df["phi"], PHI, atol=1e-7)
 
 
+def _angle_rows(times: list[str]) -> str:
+    return "t (s),theta,psi,phi\n" + "\n".join(
+        f"{s},{num(THETA[k])},{num(PSI[k])},{num(PHI[k])}" for k, s in enumerate(times)) + "\n"
+
+
+def test_times_rounded_to_a_few_decimals_go_back_on_the_frame_grid_with_a_note(tmp_path):
+    """Times of 120 fps written to 0.1 ms (8.3 or 8.4 ms apart) gave 120.5 fps."""
+    p = tmp_path / "rounded.csv"
+    p.write_text(_angle_rows([f"{0.8 + k / 120.0:.4f}" for k in K]))
+    with pytest.warns(TrebuchetDataWarning, match=r"rounded to 0\.1 ms .* fitted frame grid"):
+        df = read_log(p)
+    step = np.diff(df["t"])
+    np.testing.assert_allclose(step, step[0], rtol=1e-9)  # one frame period
+    assert abs(step[0] * 120.0 - 1.0) < 1e-4  # 14 frames fix the rate to 0.01 %
+    assert np.abs(df["t"] - (0.8 + K / 120.0)).max() < 0.5e-4
+    assert len(df.attrs["repairs"]) == 1
+
+
+def test_times_on_an_exact_grid_are_left_alone_without_a_note(tmp_path):
+    p = tmp_path / "exact.csv"
+    p.write_text(_angle_rows([f"{k / 100.0:.2f}" for k in K]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        df = read_log(p)
+    assert df["t"].tolist() == [float(f"{k / 100.0:.2f}") for k in K]
+    assert df.attrs["repairs"] == []
+
+
 def test_columns_maps_other_names_and_leaves_unmapped_angles_to_their_names(tmp_path):
     p = tmp_path / "named.csv"
     rows = [f"{num(k / FPS)},{num(THETA[k])},{num(PSI[k])},{num(PHI[k])},1" for k in K]
@@ -124,7 +152,9 @@ def test_tracker_multi_tab_with_track_names_mapped_to_angles():
     )
     assert df.attrs["format"] == "tracker"
     assert df.attrs["columns"] == {"theta": "beam/θ", "psi": "arm/θ", "phi": "sling/θ"}
-    np.testing.assert_allclose(df["t"], np.round(K / FPS, 4), atol=1e-15)
+    # its times, written to 0.1 ms, go back on a fitted frame grid (a repair)
+    np.testing.assert_allclose(df["t"], K / FPS, atol=0.5e-4)
+    np.testing.assert_allclose(np.diff(df["t"]), 1.0 / FPS, rtol=1e-4)
     # written with 3 decimals in degrees
     np.testing.assert_allclose(df["theta"], THETA, atol=math.radians(0.0005) + 1e-15)
     np.testing.assert_allclose(df["psi"], PSI, atol=math.radians(0.0005) + 1e-15)
