@@ -15,6 +15,8 @@ class ParsedLog:
     number in the file (for messages). ``angles`` are in rad, NaN where missing; ``labels``
     says which column of the file each angle came from. ``points`` holds point positions
     (``"<role>_x"``, ``"<role>_y"``, in the file's length unit, y up) for point files.
+    ``leaves_sling``: (time, sd) in s at which a tracked projectile leaves its sling's
+    circle (:mod:`.sling_circle`), if it does.
     """
 
     fmt: str
@@ -27,6 +29,7 @@ class ParsedLog:
     points: dict[str, np.ndarray] | None = None
     point_names: dict[str, str] | None = None
     repairs: list[str] = field(default_factory=list)
+    leaves_sling: tuple[float, float] | None = None
 
     def take(self, keep: np.ndarray) -> None:
         """Keep only the rows where the boolean mask ``keep`` is true (in place)."""

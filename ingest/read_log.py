@@ -49,6 +49,7 @@ from .log_time import (
     snap_rounded_times,
 )
 from .parsed_log import LogSource, ParsedLog
+from .sling_circle import leaving_time, sling_ratio
 
 #: Fewest frames with all three angles that a log must have.
 MIN_FRAMES = 10
@@ -99,8 +100,10 @@ def read_log(
         (which column or points gave each angle), ``fps`` (if known), ``frame`` (list
         of frame numbers per row, if the file has them), and for point files ``points``
         (dict of lists: ``t``, ``<part>_x``, ``<part>_y`` in the file's unit, y up; one
-        call to ``pandas.DataFrame`` away from a table) and ``point_names``. Only plain
-        Python values, so that ``pandas.concat`` of logs keeps working.
+        call to ``pandas.DataFrame`` away from a table) and ``point_names``; and
+        ``leaves_sling`` (``{"t", "sd"}`` in s) when a tracked projectile leaves its
+        sling's circle (phi is blanked from there, a repair). Only plain Python values,
+        so that ``pandas.concat`` of logs keeps working.
 
     Raises
     ------
@@ -252,6 +255,9 @@ def _from_points(
         if note:
             repairs.append(note)
     angles = point_angles(positions)
+    leaves, note = _cut_flight_from_sling(source, positions, angles)
+    if note:
+        repairs.append(note)
     labels = {}
     for angle, pairs in NEEDS.items():
         for a, b in pairs:
@@ -273,7 +279,32 @@ def _from_points(
         points=flat,
         point_names={role: cand.label for role, cand in chosen.items()},
         repairs=repairs,
+        leaves_sling=leaves,
     )
+
+
+def _cut_flight_from_sling(source: LogSource, positions: dict[str, tuple[np.ndarray, np.ndarray]],
+                           angles: dict[str, np.ndarray]
+                           ) -> tuple[tuple[float, float] | None, str | None]:
+    """Blank phi where the tracked projectile has left its sling's circle (in flight after
+    the release, see :mod:`.sling_circle`); return (that time and its sd in s, the repair
+    note), or (None, None)."""
+    if not all(r in positions for r in ("pivot", "spigot", "projectile")):
+        return None, None
+    ratio = sling_ratio(positions["pivot"], positions["spigot"], positions["projectile"])
+    found = leaving_time(source.t, ratio)
+    if found is None:
+        return None, None
+    first = int(np.searchsorted(source.t, found[0], side="right"))
+    cut = np.isfinite(angles["phi"]) & (np.arange(ratio.size) >= first)
+    angles["phi"][cut] = np.nan
+    level = float(np.nanmedian(ratio))
+    far = float(np.nanmax(ratio[first:])) / level
+    return found, (f"the projectile leaves its sling's circle at t = {found[0]:.6g} ± "
+            f"{found[1]:.2g} s, before row {source.rows[first]}, and ends {far:.3g}× the "
+            f"sling's length from the spigot: the stone is in flight, so phi (spigot -> "
+            f"projectile) is no sling angle there; its {int(cut.sum())} values from that row "
+            "on are left out (the release lies before it)")
 
 
 def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame:
@@ -297,6 +328,8 @@ def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame
             k: [float(v) for v in arr] for k, arr in log.points.items()
         }
         attrs["point_names"] = dict(log.point_names or {})
+    if log.leaves_sling is not None:
+        attrs["leaves_sling"] = {"t": log.leaves_sling[0], "sd": log.leaves_sling[1]}
     df.attrs.update(attrs)
     name = Path(path).name
     for note in repairs:
