@@ -47,6 +47,7 @@ from trebuchet.model.scene import Scene, as_scene
 from .advisory import resolution_advisories
 from .lift_off import lift_off_sd, lift_off_time
 from .noise_tuning import NoiseSearch
+from .release_model import ReleaseFit, release_choice, release_from_model
 from .scene_fit import geometry_findings, warn_findings
 from .smooth import ANGLES, SUFFIXES, SmoothSettings, checked_events, smooth, validated_log
 from .uncertainty import propagate
@@ -135,6 +136,13 @@ class ReconstructOptions:
       too narrow at 2° noise and 60–120 fps.
 
     An explicit ``smooth`` replaces the preset's smoother settings.
+
+    ``release_model``: when the release is neither given nor the end of the sling's
+    track (the track goes on past it: an empty sling swinging, a tracker following the
+    stone), it is checked against the engine's equations (:mod:`.release_model`: the
+    measured θ̈, ψ̈ follow phase II before it and phase III after it); where the two
+    disagree, or the smoother found no release, the model's release is handed to the
+    smoother (a second smoothing) with its sd. None: no check.
     """
 
     form: str = "projected"
@@ -145,6 +153,7 @@ class ReconstructOptions:
     model: str = "ca"
     smooth: SmoothSettings | None = None
     preset: str = "default"
+    release_model: ReleaseFit | None = ReleaseFit()
 
     def __post_init__(self) -> None:
         check_choice("reconstruct", "preset", self.preset, tuple(PRESETS))
@@ -394,6 +403,54 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     return result
 
 
+def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene,
+                              options: ReconstructOptions,
+                              smooth_events: dict[str, float | None],
+                              q: float | Mapping[str, float] | None,
+                              r: float | Mapping[str, float] | None
+                              ) -> tuple[pd.DataFrame, float | None]:
+    """The smoothed log and the release's sd (s; None = the default) after checking the
+    smoother's release against the engine's equations (:mod:`.release_model`); where the
+    model's release is used the log is smoothed again with it given, its source says so
+    and a note tells both times. A model that fits neither phase warns
+    (ModelValidityWarning)."""
+    settings = options.release_model
+    noise = est.attrs.get("noise", {})
+    if not all(a in noise for a in ("theta", "psi")):
+        return est, None
+    angles = {}
+    for a in ("theta", "psi"):
+        z = log[a].to_numpy(dtype=float).copy()
+        ok = np.isfinite(z)
+        z[ok] = np.unwrap(z[ok])  # as the smoother does
+        angles[a] = z
+    found = est.attrs["events"]
+    fitted = release_from_model(angles, est, scene, found.get("trigger"),
+                                {a: noise[a]["r_sd"] for a in ("theta", "psi")}, settings)
+    t = est["t"].to_numpy(dtype=float)
+    sd_free = options.event_sd_frames * float(np.median(np.diff(t)))
+    use, sentence = release_choice(fitted, found.get("release"), sd_free, settings)
+    if sentence is not None and not use:
+        warnings.warn(f"{Path(str(log.attrs.get('source', 'log'))).name}: {sentence}",
+                      ModelValidityWarning, stacklevel=3)
+    if not use:
+        if sentence is not None:
+            est.attrs["notes"] = [*est.attrs.get("notes", []), sentence]
+            return est, None
+        # agreed: the smoother's time stands, with the wider of the two sds
+        return est, (None if fitted.time is None or found.get("release") is None
+                     else max(sd_free, fitted.sd))
+    notes = list(est.attrs.get("notes", []))
+    est = smooth(log, model=options.model, q=q, r=r,
+                 events={**smooth_events, "release": fitted.time},
+                 settings=smoother_settings(options))
+    est.attrs["event_sources"]["release"] = ("the engine's equations (phase II before, "
+                                             "phase III after)")
+    est.attrs["notes"] = [*notes, *(n for n in est.attrs.get("notes", []) if n not in notes),
+                          sentence]
+    return est, fitted.sd
+
+
 def _log_frame(path_or_log, fps, columns, points, min_likelihood) -> pd.DataFrame:
     if isinstance(path_or_log, pd.DataFrame):
         if points is not None:
@@ -483,10 +540,16 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
             smooth_events["release"] = track_end[0]
     est = smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
                  settings=smoother_settings(options))
+    release_sd = None
     if track_end is not None:
         est.attrs["event_sources"]["release"] = "end of the sling track"
+        release_sd = track_end[1]
+    elif ("release" not in given and scene.projectile != "none"
+          and options.release_model is not None):
+        est, release_sd = _release_by_the_equations(log, est, scene, options, smooth_events,
+                                                    q, r)
     result = loads_from_smoothed(est, scene, events=given, options=options,
-                                 release_sd=None if track_end is None else track_end[1])
+                                 release_sd=release_sd)
     for key in ("source", "format", "repairs", "columns"):
         if key in log.attrs:
             result.attrs[key] = log.attrs[key]

@@ -1,0 +1,335 @@
+"""The release from the engine's equations: where the measured accelerations stop
+following phase II (projectile in the sling) and start following phase III (released).
+
+Used by :func:`~trebuchet.ingest.reconstruct.reconstruct` when the sling's track goes on
+past the release (an empty sling swinging, a tracker following the stone): the
+model-free jump search of :mod:`.events` then has nothing that marks the release. Two
+stages, both with the model's own accelerations
+(:func:`trebuchet.model.dynamics.accelerations_phase1` / ``_phase2`` / ``_phase3``) on
+the smoothed state:
+
+1. **coarse**: the smoothed θ̈, ψ̈ against each phase's prediction, frame by frame
+   (weights: the smoother's sd and a model-error floor, each frame's squared normalised
+   residual capped), and the change point "I, then II, then III" of largest likelihood
+   (lift-off profiled out for a trough scene), by cumulative sums;
+2. **fine**: the raw θ and ψ around it against ``c0 + c1 u + c2 u²`` plus the double
+   integral of the phase-II acceleration before ``t_r`` and the phase-III one after it
+   (a jump in acceleration of the size the model says, at ``t_r``); its χ² (noise sd from
+   the smoother) profiled over ``t_r`` on a frame grid, then at a tenth of a frame, gives
+   the estimate (the profile's mean) and its sd, the χ² per degree of freedom above 1
+   (model error) widening it.
+
+φ enters only before the candidate release (the empty sling's motion is not modelled).
+All times in the log's own time (s); angles rad, rates rad/s, accelerations rad/s².
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from trebuchet.errors import TrebuchetInputError
+from trebuchet.model import dynamics as dyn
+from trebuchet.model.scene import Scene
+
+__all__ = ["ReleaseFit", "ModelRelease", "phase_accelerations", "phase_change_profile",
+           "release_jump_chi2", "release_from_model", "release_choice"]
+
+
+@dataclass(frozen=True)
+class ReleaseFit:
+    """Settings of :func:`release_from_model`.
+
+    ``model_error_fraction``: floor of the coarse stage's acceleration sd, a fraction of
+    the RMS predicted acceleration of each angle; ``residual_cap``: cap of a frame's
+    squared normalised residual there (a frame the smoothing smeared across the release
+    fits neither phase). ``min_log_ratio``: the coarse log-likelihood a release must gain
+    over "no release in the log". ``window_fraction``: half-width of the fine stage's fit
+    window, a fraction of the time from the trigger (or the first frame) to the coarse
+    release, at least ``min_window_frames`` frames; candidates keep ``edge_frames`` frames
+    from its ends. ``subframe_steps``: positions per frame on the second pass, over every
+    candidate within ``profile_drop`` log-likelihood units of the best.
+    ``sling_frame_penalty``: log-likelihood each frame pays for phase II in the coarse
+    stage: after the release a sling angle that follows the stone (or a slack sling) makes
+    phase II's prediction close to phase III's, and the release is the first frame from
+    which phase III fits, not the last at which phase II still does.
+    ``agreement_sd``: the model's release replaces the model-free one when they differ by
+    more than this many of its sd; ``max_misfit``: above this
+    :attr:`ModelRelease.misfit` neither phase fits (a wrong scene?) and the model's release
+    is not used.
+    """
+
+    model_error_fraction: float = 0.05
+    residual_cap: float = 25.0
+    min_log_ratio: float = 6.0
+    window_fraction: float = 0.15
+    min_window_frames: int = 10
+    edge_frames: int = 3
+    subframe_steps: int = 10
+    profile_drop: float = 12.0
+    sling_frame_penalty: float = 0.5
+    agreement_sd: float = 1.0
+    max_misfit: float = 3.0
+
+    def __post_init__(self) -> None:
+        for name in ("model_error_fraction", "residual_cap", "window_fraction", "profile_drop",
+                     "agreement_sd", "max_misfit"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise TrebuchetInputError(f"ReleaseFit: {name} must be a positive number, "
+                                          f"not {value!r}")
+        if not (np.isfinite(self.min_log_ratio) and np.isfinite(self.sling_frame_penalty)
+                and self.sling_frame_penalty >= 0):
+            raise TrebuchetInputError("ReleaseFit: min_log_ratio must be finite and "
+                                      "sling_frame_penalty ≥ 0")
+        if self.min_window_frames < 2 * self.edge_frames + 2 or self.subframe_steps < 1:
+            raise TrebuchetInputError("ReleaseFit: min_window_frames must exceed 2 edge_frames + 1 "
+                             "and subframe_steps be ≥ 1")
+
+
+@dataclass(frozen=True)
+class ModelRelease:
+    """Result of :func:`release_from_model`.
+
+    ``time`` (s, log time; None = no release found) and its ``sd`` (s); ``misfit``: the
+    median over the shot's frames away from the release of the best-fitting phase's
+    squared normalised acceleration residual per angle (about 0.1–0.7 where the scene is
+    the engine filmed, 4–25 for another engine on ``bench``-like logs; NaN if not
+    computed); ``chi2_dof``: the fine fit's χ² per degree of freedom (about 1);
+    ``log_ratio``: the coarse log-likelihood gain of the release over none; ``how``: a
+    phrase.
+    """
+
+    time: float | None
+    sd: float
+    misfit: float
+    chi2_dof: float
+    log_ratio: float
+    how: str
+
+
+def _none(how: str, misfit: float = float("nan"), log_ratio: float = 0.0) -> ModelRelease:
+    """A :class:`ModelRelease` without a release."""
+    return ModelRelease(None, float("nan"), misfit, float("nan"), log_ratio, how)
+
+
+def phase_accelerations(state: Mapping[str, np.ndarray], scene: Scene
+                        ) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """θ̈ and ψ̈ (rad/s²) that each phase of ``scene`` predicts on every row of ``state``
+    (``theta``, ``psi``, ``phi`` rad and their rates ``_d`` rad/s): phase 1 by
+    :func:`~trebuchet.model.dynamics.accelerations_phase1` (φ from the trough), 2 by
+    ``accelerations_phase2``, 3 by ``accelerations_phase3``; NaN where a phase's formula
+    is undefined (θ off the trough)."""
+    e, g = scene.engine, scene.g
+    th, ps, ph = (np.asarray(state[a], dtype=float) for a in ("theta", "psi", "phi"))
+    th_d, ps_d, ph_d = (np.asarray(state[a + "_d"], dtype=float) for a in ("theta", "psi", "phi"))
+    out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if 1 in scene.phases:
+            _, _, a, b, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, scene.start.H)
+            out[1] = (np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+        if 2 in scene.phases:
+            a, b, _ = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g)
+            out[2] = (np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+        a, b = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
+        out[3] = (np.broadcast_to(np.asarray(a, dtype=float), th.shape),
+                  np.broadcast_to(np.asarray(b, dtype=float), th.shape))
+    return out
+
+
+def _frame_loglik(measured: tuple[np.ndarray, ...], measured_sd: tuple[np.ndarray, ...],
+                  predicted: tuple[np.ndarray, ...], floor: tuple[float, ...],
+                  cap: float) -> np.ndarray:
+    """Per-frame log-likelihood (n,) of measured accelerations under one phase's
+    prediction: ``−½ Σ_angles min(r²/(sd² + floor²), cap)``; a missing value counts as
+    the cap for every phase (so it favours none)."""
+    total = np.zeros(measured[0].shape)
+    for z, s, p, f in zip(measured, measured_sd, predicted, floor, strict=True):
+        with np.errstate(invalid="ignore"):
+            r2 = (z - p) ** 2 / (s**2 + f**2)
+        total -= 0.5 * np.where(np.isfinite(r2), np.minimum(r2, cap), cap)
+    return total
+
+
+def phase_change_profile(loglik: Mapping[int, np.ndarray], start: int) -> np.ndarray:
+    """Log-likelihood (m + 1,) of "phase II on rows ``start … start+j−1``, phase III from
+    row ``start+j``", j = 0 … m (m rows from ``start``), from per-row log-likelihoods of
+    each phase (``{2: (n,), 3: (n,)}``, and ``1`` for a trough scene: then the rows begin
+    in phase I and the lift-off before the release is profiled out)."""
+    c = {p: np.concatenate([[0.0], np.cumsum(v[start:])]) for p, v in loglik.items()}
+    before = c[2]
+    if 1 in c:
+        before = c[2] + np.maximum.accumulate(c[1] - c[2])
+    return before + (c[3][-1] - c[3])
+
+
+def _double_integrals(t: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and second integrals from ``t[0]`` (rad/s, rad) of the piecewise-linear
+    acceleration ``a`` (rad/s²) on the grid ``t`` (s), at the grid points, exactly."""
+    h = np.diff(t)
+    d1 = np.concatenate([[0.0], np.cumsum(0.5 * h * (a[:-1] + a[1:]))])
+    step = h * d1[:-1] + h**2 * (a[:-1] / 3.0 + a[1:] / 6.0)
+    return d1, np.concatenate([[0.0], np.cumsum(step)])
+
+
+def _integrals_at(t: np.ndarray, a: np.ndarray, d1: np.ndarray, d2: np.ndarray,
+                  when: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The integrals of :func:`_double_integrals` at times ``when`` (s) inside the grid."""
+    k = np.clip(np.searchsorted(t, when, side="right") - 1, 0, t.size - 2)
+    h = t[k + 1] - t[k]
+    u = when - t[k]
+    slope = (a[k + 1] - a[k]) / h
+    first = d1[k] + u * a[k] + 0.5 * u**2 * slope
+    second = d2[k] + u * d1[k] + 0.5 * u**2 * a[k] + u**3 * slope / 6.0
+    return first, second
+
+
+def release_jump_chi2(t: np.ndarray, angles: tuple[np.ndarray, ...], noise_sd: tuple[float, ...],
+                      before: tuple[np.ndarray, ...], after: tuple[np.ndarray, ...],
+                      candidates: np.ndarray) -> tuple[np.ndarray, int]:
+    """χ² (C,) of the raw angles (rad, NaN = missing) on the window ``t`` (s) for each
+    candidate release time (s) in ``candidates`` (C,), and its degrees of freedom.
+
+    Model of each angle: ``c0 + c1 u + c2 u² + ∬ a``, ``u = t − t[0]``, the acceleration
+    ``a`` (piecewise linear between frames) the phase-II prediction ``before`` (rad/s²)
+    up to the release and the phase-III one ``after`` from it; ``c0, c1, c2`` fitted
+    by least squares (they take up a slowly varying model error), residuals weighted by
+    the noise sd (rad). The release term, ``∫_{t_r}^{t} (t − s)(a_III − a_II)(s) ds`` for
+    ``t > t_r``, is exact for the piecewise-linear accelerations.
+    """
+    chi2 = np.zeros(candidates.size)
+    dof = -1
+    u = t - t[0]
+    for z, sd, a2, a3 in zip(angles, noise_sd, before, after, strict=True):
+        ok = np.isfinite(z)
+        _, base = _double_integrals(t, a2)
+        delta = a3 - a2
+        d1, d2 = _double_integrals(t, delta)
+        at1, at2 = _integrals_at(t, delta, d1, d2, candidates)
+        late = t[None, :] > candidates[:, None]
+        jump = np.where(late, d2[None, :] - at2[:, None]
+                        - (t[None, :] - candidates[:, None]) * at1[:, None], 0.0)
+        y = (z - base)[None, ok] - jump[:, ok]
+        basis = np.stack([np.ones(ok.sum()), u[ok], u[ok] ** 2], axis=1)
+        q, _ = np.linalg.qr(basis)
+        resid = y - (y @ q) @ q.T
+        chi2 += np.einsum("cm,cm->c", resid, resid) / sd**2
+        dof += int(ok.sum()) - 3
+    return chi2, dof
+
+
+def _profile_mean_sd(grid: np.ndarray, loglik: np.ndarray, step: float) -> tuple[float, float]:
+    """Mean and sd (s) of a flat-prior posterior ``exp(loglik)`` on the grid (s, spacing
+    ``step`` s)."""
+    w = np.exp(loglik - loglik.max())
+    w /= w.sum()
+    mean = float(w @ grid)
+    return mean, float(np.sqrt(w @ (grid - mean) ** 2 + step**2 / 12.0))
+
+
+def _state(est: Mapping[str, np.ndarray] | object) -> dict[str, np.ndarray]:
+    cols = [a + s for a in ("theta", "psi", "phi") for s in ("", "_d", "_dd", "_dd_sd")]
+    return {c: np.asarray(est[c], dtype=float) for c in ["t", *cols]}
+
+
+def release_from_model(log_angles: Mapping[str, np.ndarray], est, scene: Scene,
+                       trigger: float | None, noise_sd: Mapping[str, float],
+                       settings: ReleaseFit = ReleaseFit()) -> ModelRelease:
+    """Release time (s, log time) from the engine's equations; see the module doc.
+
+    ``log_angles``: the raw ``theta``, ``psi`` (rad, NaN = missing) on the rows of ``est``,
+    the output of :func:`~trebuchet.ingest.smooth.smooth` (angles, rates, accelerations
+    and their sd); ``trigger``: its time (s; None = the log starts in motion);
+    ``noise_sd``: measurement-noise sd (rad) of ``theta`` and ``psi``.
+    """
+    s = _state(est)
+    t = s["t"]
+    if scene.projectile == "none":
+        return _none("a dry fire has no release")
+    start = 0 if trigger is None else int(np.searchsorted(t, trigger, side="right"))
+    if t.size - start < 2 * settings.min_window_frames:
+        return _none("too few frames after the trigger")
+    pred = phase_accelerations(s, scene)
+    measured = (s["theta_dd"], s["psi_dd"])
+    measured_sd = (s["theta_dd_sd"], s["psi_dd_sd"])
+    floor = []
+    for k in range(2):
+        both = np.concatenate([pred[2][k][start:], pred[3][k][start:]])
+        both = both[np.isfinite(both)]
+        if both.size == 0:
+            return _none("the model's accelerations are undefined on the smoothed state")
+        floor.append(settings.model_error_fraction * float(np.sqrt(np.mean(both**2))))
+    ll = {p: _frame_loglik(measured, measured_sd, v, tuple(floor), settings.residual_cap)
+          for p, v in pred.items()}
+    # per frame, the best-fitting phase's squared normalised residual per angle
+    best_fit = -np.max(np.stack([v[start:] for v in ll.values()]), axis=0)
+    ll[2] = ll[2] - settings.sling_frame_penalty
+    profile = phase_change_profile(ll, start)
+    j = int(np.argmax(profile))
+    log_ratio = float(profile[j] - profile[-1])
+    if (j >= profile.size - settings.min_window_frames or j == 0
+            or log_ratio < settings.min_log_ratio):
+        return _none("the accelerations do not change from phase II to III",
+                     float(np.median(best_fit)), log_ratio)
+    i = start + j  # first row in phase III
+    coarse = 0.5 * (t[i - 1] + t[i])
+    dt = float(np.median(np.diff(t)))
+    half = max(settings.window_fraction * (coarse - (t[0] if trigger is None else trigger)),
+               settings.min_window_frames * dt)
+    inside = (t >= coarse - half) & (t <= coarse + half)
+    away = ~inside[start:]
+    misfit = float(np.median(best_fit[away] if away.any() else best_fit))
+    rows = np.flatnonzero(inside)
+    tw = t[rows]
+    z = tuple(np.asarray(log_angles[a], dtype=float)[rows] for a in ("theta", "psi"))
+    after = tuple(v[rows] for v in pred[3])
+    # no sling angle (past the end of its track): no phase II to tell apart from III
+    before = tuple(np.where(np.isfinite(v[rows]), v[rows], w)
+                   for v, w in zip(pred[2], after, strict=True))
+    if not all(np.isfinite(v).all() for v in (*before, *after)):
+        return _none("the model's accelerations are undefined near the release", misfit,
+                     log_ratio)
+    sd = tuple(float(noise_sd[a]) for a in ("theta", "psi"))
+    edge = settings.edge_frames
+    grid = tw[edge:-edge] - 0.5 * dt
+    chi2, dof = release_jump_chi2(tw, z, sd, before, after, grid)
+    best = float(np.min(chi2))
+    chi2_dof = best / max(dof, 1)
+    scale = max(1.0, chi2_dof)  # model error beyond the noise widens the profile
+    keep = np.flatnonzero(-0.5 * (chi2 - best) / scale >= -settings.profile_drop)
+    lo = grid[max(keep[0] - 1, 0)]
+    hi = grid[min(keep[-1] + 1, grid.size - 1)]
+    step = dt / settings.subframe_steps
+    fine = np.arange(lo, hi + 0.5 * step, step)
+    chi2_f, _ = release_jump_chi2(tw, z, sd, before, after, fine)
+    when, spread = _profile_mean_sd(fine, -0.5 * chi2_f / scale, step)
+    return ModelRelease(when, spread, misfit, chi2_dof, log_ratio,
+                        "the engine's equations (phase II before, phase III after)")
+
+
+def release_choice(model: ModelRelease, model_free: float | None, model_free_sd: float,
+                   settings: ReleaseFit = ReleaseFit()) -> tuple[bool, str | None]:
+    """Whether the model's release replaces the model-free one (``model_free`` s, log
+    time, None = none found, sd ``model_free_sd`` s), and a sentence for the user (None =
+    nothing to say): replaced when the scene fits (``misfit`` ≤ ``max_misfit``) and the two
+    differ by more than ``agreement_sd`` of its sd (or of ``model_free_sd`` if larger), or
+    no model-free one was found; a misfit says neither phase fits."""
+    if model.misfit > settings.max_misfit:
+        return False, (f"the scene's equations fit the measured accelerations of θ and ψ "
+                       f"neither as phase II nor as phase III (median squared residual "
+                       f"{model.misfit:.1f} sd² per angle): is the scene the engine filmed? "
+                       "The release is not checked against them")
+    if model.time is None:
+        return False, None
+    if model_free is None:
+        return True, (f"release at {model.time:.4f} s (sd {1e3 * model.sd:.1f} ms) from the "
+                      "engine's equations; no jump in the angles' acceleration marked it")
+    gap = model.time - model_free
+    if abs(gap) <= settings.agreement_sd * max(model.sd, model_free_sd):
+        return False, None
+    return True, (f"release at {model.time:.4f} s (sd {1e3 * model.sd:.1f} ms) from the "
+                  f"engine's equations, {1e3 * abs(gap):.0f} ms "
+                  f"{'before' if gap < 0 else 'after'} the jump in acceleration at "
+                  f"{model_free:.4f} s (the sling's track goes on past the release?)")

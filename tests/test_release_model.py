@@ -1,0 +1,254 @@
+"""The release from the engine's equations (ingest/release_model.py) when the sling's
+track goes on past the release: an empty sling swinging, or a tracker on the stone."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.integrate import solve_ivp
+
+from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
+from trebuchet.ingest.release_model import (
+    ModelRelease,
+    ReleaseFit,
+    phase_change_profile,
+    release_choice,
+    release_from_model,
+    release_jump_chi2,
+)
+from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.smooth import smooth
+from trebuchet.model import dynamics as dyn
+from trebuchet.model.kinematics import dot, rotated_acceleration, spigot_position, unit_perp
+from trebuchet.model.scene import Scene
+from trebuchet.model.simulate import simulate
+
+SOURCE = "the engine's equations (phase II before, phase III after)"
+
+
+def _quiet(fn, *args, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return fn(*args, **kw)
+
+
+# ----------------------------------------------------------------------------- logs
+
+
+def empty_sling_angle(scene: Scene, t_shot: np.ndarray, release: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """θ and φ (rad) at ``t_shot`` (s after the trigger, after ``release``) of an engine whose
+    sling, emptied at ``release``, swings on as a point pouch on a massless sling of length
+    L4 hung from the spigot: beam and counterweight by phase III, the pouch by
+    ``(a_spigot + L4 (φ̈ e_φ⊥ − φ̇² e_φ) − g)·e_φ⊥ = 0`` (the sling pulls along e_φ only),
+    from the simulated state at the release."""
+    e, g = scene.engine, scene.g
+    at = simulate(scene, t_eval=[release]).iloc[0]  # the row holds the phase that ends
+    y0 = [at[c] for c in ("theta", "psi", "theta_d", "psi_d", "phi", "phi_d")]
+    gravity = np.array([[0.0], [-g]])
+
+    def rates(_t, y):
+        th, ps, th_d, ps_d, ph, ph_d = y
+        th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
+        a_spigot = e.L1 * rotated_acceleration(np.array([th]), np.array([th_d]),
+                                               np.array([th_dd]))
+        perp = unit_perp(np.array([ph]))
+        ph_dd = (dot(gravity, perp)[0] - dot(a_spigot, perp)[0]) / e.L4
+        return [th_d, ps_d, th_dd, ps_dd, ph_d, ph_dd]
+
+    sol = solve_ivp(rates, (release, float(t_shot[-1])), y0, t_eval=t_shot, rtol=1e-10,
+                    atol=1e-12, method="DOP853")
+    return sol.y[0], sol.y[4]
+
+
+def continued_sling_log(scene: Scene, fps: float, noise_deg: float, kind: str, seed: int = 0,
+                        drop_fraction: float = 0.0) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """:func:`simulated_log` with the sling angle tracked past the release, with the same
+    noise: ``kind="pendulum"`` the empty sling (:func:`empty_sling_angle`), ``"stone"``
+    the direction from the spigot to the stone in flight (the truth's ``x_m``, ``y_m``)."""
+    log, truth = simulated_log(scene, fps, noise_deg, seed=seed, drop_fraction=drop_fraction)
+    trigger, release = (truth.attrs["events"][k] for k in ("trigger", "release"))
+    t = log["t"].to_numpy()
+    after = t > release
+    if kind == "pendulum":
+        theta, phi = empty_sling_angle(scene, t[after] - trigger, release - trigger)
+        assert np.max(np.abs(theta - truth["theta"].to_numpy()[after])) < 1e-6
+    else:
+        flight = truth.loc[after]
+        spigot = spigot_position(flight["theta"].to_numpy(), scene.engine, scene.start.H)
+        phi = np.arctan2(flight["y_m"].to_numpy() - spigot[1],
+                         flight["x_m"].to_numpy() - spigot[0])
+        last = truth["phi"].to_numpy()[~after][-1]
+        phi = np.unwrap(np.concatenate([[last], phi]))[1:]
+    rng = np.random.default_rng(seed + 7919)
+    z = phi + rng.normal(0.0, np.deg2rad(noise_deg), phi.size)
+    if drop_fraction:
+        z[rng.random(phi.size) < drop_fraction] = np.nan
+    log.loc[after, "phi"] = z
+    return log, truth
+
+
+def _release_error_frames(res: pd.DataFrame, truth: pd.DataFrame, fps: float) -> float:
+    found = res.attrs["events"]["release"]
+    return np.inf if found is None else (found - truth.attrs["events"]["release"]) * fps
+
+
+def _peak_error(res: pd.DataFrame, truth: pd.DataFrame, col: str = "F_S_abs") -> float:
+    return float(res[col].max() / truth[col].max() - 1.0)
+
+
+# ----------------------------------------------------------------------------- reconstruct
+
+
+@pytest.mark.parametrize(("engine", "kind", "fps", "noise"), [
+    ("horsdal", "pendulum", 120, 0.5),
+    ("horsdal", "stone", 240, 0.5),
+    ("backyard", "pendulum", 240, 0.1),
+    ("backyard", "stone", 60, 0.1),
+])
+def test_release_when_the_sling_track_goes_on(engine, kind, fps, noise, request):
+    scene = request.getfixturevalue(engine)
+    log, truth = continued_sling_log(scene, fps, noise, kind, seed=1, drop_fraction=0.02)
+    res = _quiet(reconstruct, log, scene)
+    err = _release_error_frames(res, truth, fps)
+    sd = res.attrs["event_sd"]["release"] * fps
+    assert abs(err) <= 2.0, (err, res.attrs["event_sources"]["release"])
+    assert abs(err) <= 3.0 * sd
+    assert sd < 3.0
+    assert abs(_peak_error(res, truth)) < 0.1
+    # the loads after the release are those of phase III: no sling tension
+    released = res["t"].to_numpy() > res.attrs["events"]["release"]
+    assert (res["phase"].to_numpy()[released] == 3).all()
+    assert np.all(res["F_S_abs"].to_numpy()[released] == 0.0)
+
+
+def test_the_model_free_release_misses_where_the_equations_find_it(backyard):
+    """1000 fps, the empty sling swinging on: the jump search alone lands far from the
+    release (about 90 frames early on this log); the engine's equations replace it."""
+    fps = 1000
+    log, truth = continued_sling_log(backyard, fps, 0.1, "pendulum", seed=1)
+    free = _quiet(reconstruct, log, backyard, options=ReconstructOptions(release_model=None))
+    res = _quiet(reconstruct, log, backyard)
+    free_err = _release_error_frames(free, truth, fps)
+    err = _release_error_frames(res, truth, fps)
+    assert res.attrs["event_sources"]["release"] == SOURCE
+    assert abs(err) <= 4.0 and abs(err) <= 3.0 * res.attrs["event_sd"]["release"] * fps
+    assert abs(_peak_error(res, truth)) < 0.05
+    if abs(free_err) > 10:  # the case the check is for: the note says how far apart
+        assert any("from the engine's equations" in n for n in res.attrs["notes"])
+        assert abs(_peak_error(res, truth)) < abs(_peak_error(free, truth))
+
+
+def test_a_sling_track_that_ends_at_the_release_is_unchanged(horsdal):
+    log, truth = simulated_log(horsdal, 60, 0.5, seed=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ModelValidityWarning)
+        warnings.filterwarnings("ignore", message=".*resol", category=ModelValidityWarning)
+        res = _quiet(reconstruct, log, horsdal)
+    off = _quiet(reconstruct, log, horsdal, options=ReconstructOptions(release_model=None))
+    assert res.attrs["event_sources"]["release"] == "end of the sling track"
+    assert res.attrs["events"] == off.attrs["events"]
+    assert res.attrs["event_sd"] == off.attrs["event_sd"]
+    np.testing.assert_array_equal(res["F_S_abs"].to_numpy(), off["F_S_abs"].to_numpy())
+
+
+def test_another_engine_than_the_scene_warns_and_keeps_the_smoothers_release(horsdal,
+                                                                              backyard):
+    log, _ = continued_sling_log(backyard, 240, 0.5, "pendulum", seed=0)
+    with pytest.warns(ModelValidityWarning, match="is the scene the engine filmed"):
+        res = reconstruct(log, horsdal)
+    assert res.attrs["event_sources"]["release"] != SOURCE
+
+
+# ----------------------------------------------------------------------------- pieces
+
+
+def test_model_release_on_the_smoothed_log_is_honest(backyard):
+    """The fine fit's sd covers the error; the misfit is small for the right scene."""
+    fps = 240
+    z = []
+    for seed in range(3):
+        log, truth = continued_sling_log(backyard, fps, 0.5, "stone", seed=seed)
+        est = _quiet(smooth, log)
+        noise = {a: est.attrs["noise"][a]["r_sd"] for a in ("theta", "psi")}
+        found = release_from_model({a: log[a].to_numpy() for a in ("theta", "psi")}, est,
+                                   backyard, est.attrs["events"]["trigger"], noise)
+        assert found.time is not None and found.misfit < 1.0 and found.chi2_dof < 1.5
+        z.append((found.time - truth.attrs["events"]["release"]) / found.sd)
+        dry = release_from_model({a: log[a].to_numpy() for a in ("theta", "psi")}, est,
+                                 dataclasses.replace(backyard, projectile="none"), None, noise)
+        assert dry.time is None and "dry fire" in dry.how
+    assert np.max(np.abs(z)) < 3.0
+
+
+def test_the_jump_fit_finds_an_exact_release_between_frames():
+    """Angles that are exactly c0 + c1 t + ∬a with a linear before and after a release
+    between frames: χ² zero there and nowhere else on a tenth-of-a-frame grid."""
+    t = np.arange(0.0, 0.5, 0.01)
+    release = 0.2337
+    before, after = 3.0 + 2.0 * t, -5.0 + t
+
+    def second_integral(a0: float, a1: float, u: np.ndarray) -> np.ndarray:
+        return a0 * u**2 / 2 + a1 * u**3 / 6  # of a0 + a1 u from 0
+
+    def angle(c0, c1):
+        z = c0 + c1 * t + second_integral(3.0, 2.0, t)
+        late = t > release
+        u = t[late] - release
+        # after the release: the rate and angle carry on, the acceleration is `after`
+        a_r = 3.0 + 2.0 * release
+        v_r = c1 + 3.0 * release + release**2
+        z_r = c0 + c1 * release + second_integral(3.0, 2.0, release)
+        z[late] = z_r + v_r * u + (-5.0 + release) * u**2 / 2 + u**3 / 6
+        assert a_r != -5.0 + release
+        return z
+
+    angles = (angle(0.3, 1.2), angle(-1.0, 0.5))
+    grid = release + 0.001 * np.arange(-100, 120)
+    chi2, dof = release_jump_chi2(t, angles, (1e-4, 1e-4), (before, before), (after, after),
+                                  grid)
+    assert dof == 2 * (t.size - 3) - 1
+    assert abs(grid[np.argmin(chi2)] - release) < 1e-3
+    assert np.min(chi2) < 1e-6 and np.sort(chi2)[2] > 1.0
+    # a missing frame changes nothing but the degrees of freedom
+    gappy = (angles[0].copy(), angles[1])
+    gappy[0][7] = np.nan
+    chi2_g, dof_g = release_jump_chi2(t, gappy, (1e-4, 1e-4), (before, before),
+                                      (after, after), grid)
+    assert dof_g == dof - 1 and abs(grid[np.argmin(chi2_g)] - release) < 1e-3
+
+
+def test_phase_change_profile_puts_the_change_where_the_phases_swap():
+    n, lift, release = 40, 12, 30
+    ll = {p: np.full(n, -5.0) for p in (1, 2, 3)}
+    ll[1][:lift] = 0.0
+    ll[2][lift:release] = 0.0
+    ll[3][release:] = 0.0
+    profile = phase_change_profile(ll, 0)
+    assert profile.shape == (n + 1,) and int(np.argmax(profile)) == release
+    sling_start = {p: v for p, v in ll.items() if p != 1}
+    assert int(np.argmax(phase_change_profile(sling_start, lift))) == release - lift
+
+
+def test_release_choice():
+    fit = ModelRelease(1.0, 0.002, 0.2, 1.0, 100.0, SOURCE)
+    assert release_choice(fit, 1.001, 0.001) == (False, None)
+    use, note = release_choice(fit, 1.05, 0.001)
+    assert use and "50 ms before" in note
+    use, note = release_choice(fit, None, 0.001)
+    assert use and "no jump" in note
+    use, note = release_choice(dataclasses.replace(fit, misfit=12.0), 1.05, 0.001)
+    assert not use and "engine filmed" in note
+    assert release_choice(dataclasses.replace(fit, time=None), 1.05, 0.001) == (False, None)
+
+
+def test_release_fit_settings_are_checked():
+    for bad in ({"window_fraction": 0.0}, {"max_misfit": float("nan")},
+                {"sling_frame_penalty": -1.0}, {"min_window_frames": 4}):
+        with pytest.raises(TrebuchetInputError, match="ReleaseFit"):
+            ReleaseFit(**bad)
