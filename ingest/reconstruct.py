@@ -429,7 +429,7 @@ def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene
                                 {a: noise[a]["r_sd"] for a in ("theta", "psi")}, settings)
     t = est["t"].to_numpy(dtype=float)
     sd_free = options.event_sd_frames * float(np.median(np.diff(t)))
-    use, sentence = release_choice(fitted, found.get("release"), sd_free, settings)
+    use, sentence = release_choice(fitted, found.get("release"), settings)
     if sentence is not None and not use:
         warnings.warn(f"{Path(str(log.attrs.get('source', 'log'))).name}: {sentence}",
                       ModelValidityWarning, stacklevel=3)
@@ -444,8 +444,7 @@ def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene
     est = smooth(log, model=options.model, q=q, r=r,
                  events={**smooth_events, "release": fitted.time},
                  settings=smoother_settings(options))
-    est.attrs["event_sources"]["release"] = ("the engine's equations (phase II before, "
-                                             "phase III after)")
+    est.attrs["event_sources"]["release"] = fitted.how
     est.attrs["notes"] = [*notes, *(n for n in est.attrs.get("notes", []) if n not in notes),
                           sentence]
     return est, fitted.sd

@@ -237,14 +237,14 @@ def test_phase_change_profile_puts_the_change_where_the_phases_swap():
 
 def test_release_choice():
     fit = ModelRelease(1.0, 0.002, 0.2, 1.0, 100.0, SOURCE)
-    assert release_choice(fit, 1.001, 0.001) == (False, None)
-    use, note = release_choice(fit, 1.05, 0.001)
+    assert release_choice(fit, 1.0015) == (False, None)  # within its sd: agreed
+    use, note = release_choice(fit, 1.05)
     assert use and "50 ms before" in note
-    use, note = release_choice(fit, None, 0.001)
+    use, note = release_choice(fit, None)
     assert use and "no jump" in note
-    use, note = release_choice(dataclasses.replace(fit, misfit=12.0), 1.05, 0.001)
+    use, note = release_choice(dataclasses.replace(fit, misfit=12.0), 1.05)
     assert not use and "engine filmed" in note
-    assert release_choice(dataclasses.replace(fit, time=None), 1.05, 0.001) == (False, None)
+    assert release_choice(dataclasses.replace(fit, time=None), 1.05) == (False, None)
 
 
 def test_release_fit_settings_are_checked():
