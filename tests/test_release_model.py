@@ -212,9 +212,15 @@ def test_the_jump_fit_finds_an_exact_release_between_frames():
     grid = release + 0.001 * np.arange(-100, 120)
     chi2, dof = release_jump_chi2(t, angles, (1e-4, 1e-4), (before, before), (after, after),
                                   grid)
-    assert dof == 2 * (t.size - 3) - 1
+    assert dof == 2 * (t.size - 2) - 1
     assert abs(grid[np.argmin(chi2)] - release) < 1e-3
     assert np.min(chi2) < 1e-6 and np.sort(chi2)[2] > 1.0
+    # with an acceleration offset, free or with a prior: still exact, the prior costs nothing
+    for offset in ((np.inf, np.inf), (0.5, 0.5)):
+        chi2_o, dof_o = release_jump_chi2(t, angles, (1e-4, 1e-4), (before, before),
+                                          (after, after), grid, offset)
+        assert dof_o == dof - (2 if offset[0] == np.inf else 0)
+        assert abs(grid[np.argmin(chi2_o)] - release) < 1e-3 and np.min(chi2_o) < 1e-6
     # a missing frame changes nothing but the degrees of freedom
     gappy = (angles[0].copy(), angles[1])
     gappy[0][7] = np.nan
@@ -249,6 +255,7 @@ def test_release_choice():
 
 def test_release_fit_settings_are_checked():
     for bad in ({"window_fraction": 0.0}, {"max_misfit": float("nan")},
-                {"sling_frame_penalty": -1.0}, {"min_window_frames": 4}):
+                {"sling_frame_penalty": -1.0}, {"min_window_frames": 4},
+                {"offset_fraction": -0.1}):
         with pytest.raises(TrebuchetInputError, match="ReleaseFit"):
             ReleaseFit(**bad)
