@@ -59,9 +59,11 @@ class ReleaseFit:
     over its window (all phase II, or all phase III). ``window_fraction``: half-width of
     the fine stage's fit window, a fraction of the time from the trigger (or the first
     frame) to the coarse release, at least ``min_window_frames`` frames; candidates keep
-    ``edge_frames`` frames from its ends. ``subframe_steps``: positions per frame on the
-    second pass, over every candidate within ``profile_drop`` log-likelihood units of the
-    best.
+    ``edge_frames`` frames from its ends, about ``coarse_candidates`` of them on the
+    first pass (every frame's midpoint or a stride of frames). ``subframe_steps``:
+    positions per frame on the second pass, over every candidate within
+    ``profile_drop`` log-likelihood units of the best (coarser if that takes more than
+    ``max_fine_candidates``).
     ``sling_frame_penalty``: log-likelihood each frame pays for phase II in the coarse
     stage: after the release a sling angle that follows the stone (or a slack sling) makes
     phase II's prediction close to phase III's, and the release is the first frame from
@@ -80,6 +82,8 @@ class ReleaseFit:
     edge_frames: int = 3
     subframe_steps: int = 10
     profile_drop: float = 12.0
+    coarse_candidates: int = 80
+    max_fine_candidates: int = 160
     sling_frame_penalty: float = 0.5
     agreement_sd: float = 1.0
     offset_fraction: float = 0.02
@@ -96,9 +100,10 @@ class ReleaseFit:
                 and self.sling_frame_penalty >= 0 and self.offset_fraction >= 0):
             raise TrebuchetInputError("ReleaseFit: min_log_ratio must be finite and "
                                       "sling_frame_penalty and offset_fraction ≥ 0")
-        if self.min_window_frames < 2 * self.edge_frames + 2 or self.subframe_steps < 1:
-            raise TrebuchetInputError("ReleaseFit: min_window_frames must exceed 2 edge_frames + 1 "
-                             "and subframe_steps be ≥ 1")
+        if (self.min_window_frames < 2 * self.edge_frames + 2 or self.subframe_steps < 1
+                or self.coarse_candidates < 2 or self.max_fine_candidates < 2):
+            raise TrebuchetInputError("ReleaseFit: min_window_frames must exceed 2 edge_frames "
+                                      "+ 1, subframe_steps be ≥ 1 and the candidates ≥ 2")
 
 
 @dataclass(frozen=True)
@@ -284,6 +289,8 @@ def release_from_model(log_angles: Mapping[str, np.ndarray], est, scene: Scene,
     away = ~inside[start:]
     misfit = float(np.median(best_fit[away] if away.any() else best_fit))
     rows = np.flatnonzero(inside)
+    if not np.isfinite(pred[2][0][rows][t[rows] < coarse]).all():
+        return _none("no sling angle (phase II unknown) before the release", misfit, log_ratio)
     tw = t[rows]
     z = tuple(np.asarray(log_angles[a], dtype=float)[rows] for a in ("theta", "psi"))
     after = tuple(v[rows] for v in pred[3])
@@ -297,6 +304,7 @@ def release_from_model(log_angles: Mapping[str, np.ndarray], est, scene: Scene,
     edge = settings.edge_frames
     offset = tuple(settings.offset_fraction * v for v in rms)
     grid = tw[edge:-edge] - 0.5 * dt
+    grid = grid[::max(1, grid.size // settings.coarse_candidates)]
     chi2, dof = release_jump_chi2(tw, z, sd, before, after, grid, offset)
     best = float(np.min(chi2))
     chi2_dof = best / max(dof, 1)
@@ -304,7 +312,7 @@ def release_from_model(log_angles: Mapping[str, np.ndarray], est, scene: Scene,
     keep = np.flatnonzero(-0.5 * (chi2 - best) / scale >= -settings.profile_drop)
     lo = grid[max(keep[0] - 1, 0)]
     hi = grid[min(keep[-1] + 1, grid.size - 1)]
-    step = dt / settings.subframe_steps
+    step = max(dt / settings.subframe_steps, (hi - lo) / settings.max_fine_candidates)
     fine = np.arange(lo, hi + 0.5 * step, step)
     chi2_f, _ = release_jump_chi2(tw, z, sd, before, after, fine, offset)
     when, spread = _profile_mean_sd(fine, -0.5 * chi2_f / scale, step)

@@ -259,3 +259,13 @@ def test_release_fit_settings_are_checked():
                 {"offset_fraction": -0.1}):
         with pytest.raises(TrebuchetInputError, match="ReleaseFit"):
             ReleaseFit(**bad)
+
+
+def test_no_release_from_the_equations_without_a_sling_angle_or_a_release(horsdal):
+    log, truth = continued_sling_log(horsdal, 120, 0.3, "pendulum", seed=0)
+    no_sling = log.assign(phi=np.nan)
+    res = _quiet(reconstruct, no_sling, horsdal)
+    assert res.attrs["event_sources"]["release"] != SOURCE
+    cut = log[log["t"] < truth.attrs["events"]["release"] - 0.05].reset_index(drop=True)
+    res = _quiet(reconstruct, cut, horsdal)
+    assert res.attrs["events"]["release"] is None
