@@ -466,54 +466,6 @@ def error_covariance(steps: StepModel, filt: FilterResult, sm: SmootherResult,
     return err
 
 
-def error_cross_covariance(steps: StepModel, filt_a: FilterResult, sm_a: SmootherResult,
-                           filt_b: FilterResult, sm_b: SmootherResult, noise: np.ndarray):
-    """Cross-covariances (n, B, k, k) ``E[(x_a − x̂_a)(x_b − x̂_b)ᵀ]`` of two smoothers'
-    errors (series ``b`` of ``filt_a``/``sm_a`` with series ``b`` of ``filt_b``/``sm_b``,
-    each with its own gains) when their true process noises have the cross-covariance
-    ``noise`` (n, B, k, k) per step, their measurement noises are independent and their
-    priors uncorrelated; and the cross-covariances (n, B, k, k) of their backward sums
-    ``E[r_a r_bᵀ]``.
-
-    The recursions of :func:`error_covariance` with one smoother's ``L, N, Pp`` on each
-    side and no measurement-noise terms: ``Π_{i+1} = L_a Π L_bᵀ + W``, ``U_{i-1} =
-    (N_a L_a)ᵀ W (N_b L_b) + L_aᵀ U_i L_b``, error ``(I − Pp_a N_a) Π (I − Pp_b N_b)ᵀ +
-    Pp_a U Pp_b``, backward sums ``N_a Π N_b + U``. With one smoother on both sides this
-    is the process noise's share of :func:`error_covariance` (tests check it).
-    """
-    n, B, k = filt_a.xp.shape
-    kk = k * k
-    F_next = steps.F[1:]
-
-    def transition(filt: FilterResult) -> np.ndarray:
-        L = np.repeat(F_next[:, None], B, axis=1)
-        L[..., 0] -= np.einsum("nij,nbj->nbi", F_next, filt.gain[:-1])
-        return L
-
-    La, Lb = transition(filt_a), transition(filt_b)
-    LL = np.einsum("nbpi,nbqj->nbpqij", La, Lb).reshape(n - 1, B, kk, kk)
-    LLT = np.swapaxes(LL, 2, 3)
-    W = np.asarray(noise, float)
-    drive_f = W[1:].reshape(n - 1, B, kk)
-    Pi = np.empty((n, B, kk))
-    p = np.zeros((B, kk))
-    Pi[0] = p
-    for i in range(n - 1):
-        p = (p[:, None, :] @ LLT[i])[:, 0] + drive_f[i]
-        Pi[i + 1] = p
-    NLa = sm_a.N[1:] @ La
-    NLb = sm_b.N[1:] @ Lb
-    drive_b = np.zeros((n, B, k, k))
-    drive_b[:-1] = np.swapaxes(NLa, 2, 3) @ W[1:] @ NLb
-    U = _accumulate_backward(drive_b.reshape(n, B, kk), LL)
-    Pi = Pi.reshape(n, B, k, k)
-    U = U.reshape(n, B, k, k)
-    Ma = np.eye(k) - filt_a.Pp @ sm_a.N
-    Mb = np.eye(k) - filt_b.Pp @ sm_b.N
-    err = Ma @ Pi @ np.swapaxes(Mb, 2, 3) + filt_a.Pp @ U @ filt_b.Pp
-    return err, sm_a.N @ Pi @ sm_b.N + U
-
-
 def _accumulate_backward(drive: np.ndarray, LL: np.ndarray) -> np.ndarray:
     """``U_i = drive_i + U_{i+1} LL_i`` from the last step back (rows (B, k²) per step): the
     backward sums of the smoother's error recursions."""

@@ -57,7 +57,6 @@ from .kalman_batch import (
     backward_sums,
     batch_kalman_filter,
     error_covariance,
-    error_cross_covariance,
     polynomial_transition,
     refiltered,
     simulated_model_runs,
@@ -82,12 +81,10 @@ SUFFIXES: tuple[str, ...] = ("", "_d", "_dd")
 #: measurement noise alone, or that plus the posterior's process-noise share scaled by
 #: what the data show of it (see ``SmoothSettings``).
 BAND_VARIANCES: tuple[str, ...] = ("posterior", "noise", "calibrated")
-#: ``SmoothSettings.band_cross``: the angles' errors independent, or correlated through
-#: white process noises with a cross-covariance estimated from the data.
-BAND_CROSS: tuple[str, ...] = ("none", "white")
 #: ``SmoothSettings.band_alpha_from``: the calibration ``α`` from the smoother's backward
-#: sums of the data, or of the data's smoothing residual (see ``SmoothSettings``).
-BAND_ALPHA_FROM: tuple[str, ...] = ("sums", "residual")
+#: sums of the data, or that shrunk toward the one of the data's smoothing residual as far
+#: as the residual's scatter allows (see ``SmoothSettings``).
+BAND_ALPHA_FROM: tuple[str, ...] = ("sums", "shrunk")
 
 
 @dataclass(frozen=True)
@@ -172,7 +169,7 @@ class SmoothSettings:
     without process noise (but with the event kicks;
     :func:`~trebuchet.ingest.kalman_batch.error_covariance`; the acceleration's is about
     1/6 of ``P``, the rest is the process noise's share); ``"calibrated"`` (default)
-    ``E0 + α (P − E0)`` with ``α`` (≤ ``band_alpha_max``) how much of the model's
+    ``E0 + α (P − E0)`` with ``α`` (≤ 1) how much of the model's
     process noise the data show near each frame: the smoother's backward sums ``r``
     have ``E[r rᵀ] = R0 + α (N − R0)`` when the true process noise is ``α`` times the
     model's (``R0``: under noise alone), so ``α`` is the ratio of ``rᵀ λQ r − tr(λQ R0)``
@@ -199,62 +196,56 @@ class SmoothSettings:
     (``λ(t)^(−1/2k)`` frames) 155 / 0 / 5.
     The calibration and the second term cost about 40 ms: 2 s at 1000 fps, reconstruct()
     end to end, 0.23 s against 0.19 s.
-    ``band_cross``: ``"none"`` (default) the angles' errors independent; ``"white"`` also
-    the cross-covariances of their process-noise shares (``attrs["cross_cov"]``, used by
-    :func:`~trebuchet.ingest.uncertainty.propagate`): the angles' true jerks taken as white
-    noises whose cross-covariance ``κ`` per frame is estimated as ``α`` is (the backward
-    sums' cross-moment over the same window), and each pair of smoothers' error
-    cross-covariance for it computed exactly
-    (:func:`~trebuchet.ingest.kalman_batch.error_cross_covariance`, checked against 4000
-    simulated runs). It finds the accelerations' errors correlated (θ̈–φ̈ −0.5, ψ̈–φ̈
-    −0.7 on the sling), but a white-noise cross model correlates errors of the same
-    derivative order only (θ̈–φ̇ ≈ 0), and projected |F_S| holds no φ̈: its band is 93–97 %
-    θ̈'s, and what cancels in its error is θ̈'s against φ̇'s (measured −0.1 to −0.3 as state
-    errors), a shape of the deterministic motion. Measured (seeds 0–5; 6–11):
-    none 157 / 0 / 3 (158 / 0 / 2); white 155 / 0 / 5 (158 / 0 / 2), |F_R| RMS unchanged,
-    0.25–0.27 s; white plus the bias's cross terms ``b_a b_bᵀ`` 156 / 0 / 4
-    (157 / 0 / 3); dropped: cross-covariances with the correlation of the two angles'
-    bias series over the window (every derivative pair) 157 / 0 / 3 (157 / 0 / 3). What
-    keeps the three |F_S| cells wide is θ̈'s own band on the sling at low noise: mean z²
-    0.3–0.5 (paper 1000 fps 0.3°, small 60 fps 0.1°, 1000 fps 0.5°; 0.66–2.1 at 2°),
-    where ``α`` before its cap is 2–9 at every noise level: the white-jerk error of the
-    process share overstates a smooth motion's at a high bandwidth and understates it at a
-    low one, and ``α`` does not tell them apart.
-    ``band_alpha_from``: ``"sums"`` (default) ``α`` from the backward sums of the data as
-    above; ``"residual"`` from the backward sums ``ρ`` of the smoothing residual ``z − x̂``
-    (the same gains run on it), whose expectations under noise (with the kicks) alone and
-    under the model's white noise alone come from ``band_draws`` simulated runs of the
-    model (fixed seed; :func:`~trebuchet.ingest.kalman_batch.simulated_model_runs`). The
-    backward sums of the data already hold only what the smoother leaves in its residual,
-    ``(I − M) z``: a smooth motion inside the pass band (low noise) still fills them, as
-    the white jerk would, which is why ``α`` is 2–9 there; in ``ρ`` such a motion is
-    filtered twice and (nearly) vanishes, while one the smoother flattens (2°) stays.
-    Median ``α`` of θ on the sling, three seeds: small 60 fps 0.1° 0–1.4, paper 1000 fps
-    0.3° 0–2.6, small 1000 fps 0.5° 0–3.2, paper 240 fps 0.3° 0–1.4 against paper 60 fps
-    2° 7.6–8.4 and small 120 fps 2° 7.5–14 (``"sums"``: 2–9 in all). ``band_alpha_max``
-    (``None``: 1 for ``"sums"``; for ``"residual"`` ``q_ml / q`` at the frame, no more
-    process noise than the likelihood's maximum, 3.1–4.3 with the cutoff 0.8). But ``ρ``
-    has few degrees of freedom (the noise-only draws' sum of ``ρᵀλQρ`` over a whole
-    shot scatters by 50–80 % of its mean, paper 240 fps 0.3°), so ``α`` of one log is
-    often 0 where it should not be: ``band_alpha_sd`` adds that many sd of the draws'
-    windowed statistic to the moment before dividing. Measured (ingest_accuracy, inside /
-    narrow / wide; seeds 0–5, 6–11, 12–17, 18–23; mean |F_R| RMS unchanged: the estimates
-    do not change): sums (default) 157/0/3, 158/0/2, 160/0/0, 153/1/6; residual, cap 1,
-    16 draws, sd 0: 158/2/0, 160/0/0, 159/1/0, –; cap 3: 159/0/1, 160, 160, 159/1/0; cap
-    ∞: 155/0/5, 160; cap ``q_ml / q``, 8 draws, sd 0: 160/0/0, 160/0/0, 159/0/1,
-    159/0/1 (32 draws at cap 3: 159/0/1, 160); sd 0.25 (setting's default): 158/0/2,
-    160/0/0, 159/0/1, 156/0/4; sd 0.5: 155/0/5, 155/0/5; sd 1: 8 or more cells too wide
-    per set. Not the default: the single logs of the suite fail it. ``horsdal_240fps.csv``
-    against its own scene (``tests/test_compare.py``) has 6–24 % of rows outside ±2 sd
-    at sd 0 (limit 15 %), 3–15 % at 0.25, and
-    ``tests/test_smooth.py::test_accuracy_at_extreme_rates[60-2.0]`` (``synthetic_log``,
-    one seed) holds ψ̈ on 77 % of frames at sd 0.25 (80 % at 0.5,
-    91 % with ``"sums"``; limit 85 %): α ≈ 0 there although the motion's error is larger
-    than noise and bias (what the smoother flattens far above its pass band is white in
-    the residual, taken by the noise estimate ``r``, and ``ρ`` cannot show it). The
-    residual's ``α`` at its one-sd upper bound capped at 1 (sd 1, cap 1): demo 0–13 %
-    outside, but ψ̈ of that test 83 %. Cost: 8 draws add about 70 ms to 2 s at 1000 fps
-    (reconstruct() 0.30–0.33 s against 0.24 s).
+    Dropped: ``band_cross="white"``, cross-covariances of the angles' process-noise shares
+    (white jerks whose cross-covariance per frame came from the backward sums'
+    cross-moment, each pair of smoothers' error cross-covariance exact): it found θ̈–φ̈
+    −0.5 and ψ̈–φ̈ −0.7 on the sling, but |F_S|'s projected band is 93–97 % θ̈'s and what
+    cancels in its error is θ̈'s against φ̇'s (a white cross model correlates only equal
+    derivative orders): 155 / 0 / 5 (158 / 0 / 2), with the bias's cross terms 156 / 0 / 4.
+    What kept three |F_S| cells wide was θ̈'s own band on the sling at low noise (mean z²
+    0.3–0.5; 0.66–2.1 at 2°), where ``α`` from the sums is 2–9 before its cap at every
+    noise level: the sums hold what the smoother leaves in its residual ``(I − M) z``, and a
+    smooth motion inside the pass band fills them as the white jerk would.
+    ``band_alpha_from``: ``"sums"`` ``α`` from the backward sums of the data as above;
+    ``"shrunk"`` (default) that ``α`` (capped at 1) is the prior mean of an empirical-Bayes
+    estimate (:func:`shrunk_alpha`) whose observation is the ``α`` of the residual: the
+    backward sums ``ρ`` of the smoothing residual ``z − x̂`` (the same gains run on it), in
+    which a smooth motion inside the pass band is filtered twice and (nearly) vanishes
+    while one the smoother flattens stays; ``ρᵀλQρ``'s expectations under noise (with the
+    kicks) alone and under the model's white noise alone come from ``band_draws``
+    simulated runs of each (fixed seed; :func:`_residual_moments`), windowed as above.
+    That ``α`` has few degrees of freedom (its sd is 1.5–3.7 on one frame's window, 50–80 %
+    of the mean for a whole shot): its sampling variance ``v`` is the windowed statistic's
+    variance over the draws of noise plus process noise (data with ``α = 1``, the prior's
+    value on most frames; the noise-only draws understate it), and the prior's spread
+    ``τ²`` is DerSimonian and Laird's moment estimate, pooled over the frames with process
+    noise of all tracked angles; each frame moves ``τ² / (τ² + v)`` of the way from the
+    prior to the residual's ``α``, capped at 1. Where the residual's ``α`` scatters about
+    the prior by its own variance only (``τ² = 0``: the demo log ``horsdal_240fps.csv``)
+    the band is the one of ``"sums"``; on the bench's logs ``τ²`` is 0.17–18 (median ``v`` 2–14)
+    and the mean ``α`` of a shot falls by 0.03–0.40 (paper 1000 fps 0.3° 0.91 → 0.66,
+    small 60 fps 0.1° 0.84 → 0.49, paper 60 fps 2° 0.98 → 0.71). Measured
+    (ingest_accuracy, inside / narrow / wide on seeds 0–5, 6–11, 12–17, 18–23): sums
+    157/0/3, 158/0/2, 160/0/0, 153/1/6; shrunk (default) 160/0/0, 160/0/0, 160/0/0,
+    156/1/3; |F_R| RMS on the target cells unchanged (0.6 / 1.2 / 2.2 %, seeds 0–5: the
+    estimates do not change); reconstruct() on 2 s at 1000 fps 0.34 s against 0.23 s
+    (the draws). Single logs (sums → shrunk): the demo against its own scene 13 % of rows
+    outside at most, median 4.3 % (unchanged); ``test_accuracy_at_extreme_rates[60-2.0]``
+    ψ̈ 91 → 91 %, φ̈ 91 → 90 %; the 240 fps shot of ``tests/test_smooth.py`` θ̈ 97 → 92 %,
+    φ̈ 99.5 → 96 %. Dropped variants (the synthetic logs of ``synthetic_shot`` leave the
+    residual's ``α`` below its null there, median −0.03 to −1.3 on ψ and φ at 60 fps 2°: a
+    noise estimate ``r`` that took in motion the smoother flattens, which a ``τ²`` per angle
+    reads as spread): ``v`` from the noise-only draws with ``τ²`` by unweighted moments
+    160/0/0 on seeds 0–5 but ψ̈ 80 %, φ̈ 71 % at 60 fps 2° and θ̈ 84.8 % at 240 fps (limit
+    85 %), by DerSimonian–Laird θ̈ 84.8 %; ``τ²`` per angle ψ̈ 74 % (moments) or 83 % (DL),
+    by a median (robust) equation 77 %; ``v`` at ``α = 1`` with unweighted moments φ̈
+    100 % at 240 fps (limit 99.8 %), 155/0/5 on seeds 18–23; the cap at ``q_ml / q``
+    (no more than the likelihood's maximum) in place of 1 160, 160, 160, 153/0/7; one
+    ``α`` for all angles from the residual's moments summed over them 155/0/5. Dropped
+    before: the residual's ``α`` alone (``band_alpha_from="residual"``, cap ``q_ml / q``,
+    8 draws) 160/0/0, 160/0/0, 159/0/1, 159/0/1 but the demo 6–24 % of rows outside
+    (limit 15 %) and ψ̈ 71–77 % at 60 fps 2°, with one sd of its scatter added 158/0/2,
+    160/0/0, 159/0/1, 156/0/4.
     """
 
     noise: NoiseSearch = field(default_factory=NoiseSearch)
@@ -277,15 +268,11 @@ class SmoothSettings:
     bias_iterations: int = 2
     band_variance: str = "calibrated"
     band_window: float = 2.0
-    band_alpha_max: float | None = None
-    band_cross: str = "none"
-    band_alpha_from: str = "sums"
+    band_alpha_from: str = "shrunk"
     band_draws: int = 8
-    band_alpha_sd: float = 0.25
 
     def __post_init__(self):
         check_choice("SmoothSettings", "band_variance", self.band_variance, BAND_VARIANCES)
-        check_choice("SmoothSettings", "band_cross", self.band_cross, BAND_CROSS)
         check_choice("SmoothSettings", "band_alpha_from", self.band_alpha_from, BAND_ALPHA_FROM)
         if int(self.band_draws) != self.band_draws or self.band_draws < 1:
             raise TrebuchetInputError("SmoothSettings: band_draws must be an integer ≥ 1")
@@ -530,64 +517,16 @@ def _priors(
 # ----------------------------------------------------------------------------- main
 
 
-def _cross_process_share(steps: StepModel, filt: FilterResult, sm: SmootherResult,
-                         lam: np.ndarray, r2: np.ndarray, alpha: np.ndarray,
-                         window: float, k: int) -> dict[tuple[int, int], np.ndarray]:
-    """Cross-covariances {(a, b): (n, k, k)} of the angles' smoothing errors from their
-    process noises (``SmoothSettings.band_cross``): the share ``α (P − E0)`` of each angle
-    is the error of white noise ``α λ r² Q0`` through its smoother; two angles whose true
-    noises have the cross-covariance ``κ √(λ_a r²_a λ_b r²_b) Q0`` have the error
-    cross-covariance ``κ X_ab`` (``X_ab``:
-    :func:`~trebuchet.ingest.kalman_batch.error_cross_covariance` at ``κ = 1``). ``κ`` by
-    the same method of moments as ``α``: the backward sums have ``E[r_a r_bᵀ] = κ C_ab``
-    (measurement noises independent), so ``κ`` is the ratio of ``r_aᵀ S r_b`` to
-    ``tr(S C_ab)`` (``S = √(λ_a λ_b) Q0``) summed over the Gaussian window; then
-    ``ρ = κ / √(α_a α_b)`` is clipped to a valid (positive semi-definite) correlation."""
-    n, A = lam.shape[1], lam.shape[0]
-    pairs = [(a, b) for a in range(A) for b in range(a + 1, A)]
-    ia = np.array([p[0] for p in pairs])
-    ib = np.array([p[1] for p in pairs])
-
-    def part(index: np.ndarray) -> SmootherResult:
-        return SmootherResult(sm.x[:, index], sm.P[:, index], sm.r[:, index], sm.N[:, index])
-
-    level = np.sqrt(lam[ia] * r2[ia, None] * lam[ib] * r2[ib, None])  # (p, n)
-    noise = level.T[:, :, None, None] * steps.Q0[:, None]
-    X, C = error_cross_covariance(steps, filt.series(ia), part(ia), filt.series(ib),
-                                  part(ib), noise)
-    weight = np.sqrt(lam[ia] * lam[ib]).T[:, :, None, None] * steps.Q0[:, None]
-    seen = np.einsum("npi,npij,npj->np", sm.r[:, ia], weight, sm.r[:, ib])
-    expect = np.einsum("npij,npij->np", weight, C)
-    noisy = np.flatnonzero(steps.Q0[:, 0, 0] > 0)
-    tc = np.array([np.exp(np.mean(np.log(lam[a, noisy]))) ** (-1.0 / (2 * k))
-                   for a in range(A)])
-    rho = np.zeros((n, A, A))
-    for j, (a, b) in enumerate(pairs):
-        width = window * 0.5 * (tc[a] + tc[b])
-        num = gaussian_filter1d(seen[:, j], width, mode="constant")
-        den = gaussian_filter1d(expect[:, j], width, mode="constant")
-        scale = np.sqrt(alpha[a] * alpha[b])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            r = np.where((den > 0) & (scale > 0), num / den / scale, 0.0)
-        rho[:, a, b] = rho[:, b, a] = np.clip(np.nan_to_num(r), -1.0, 1.0)
-    rho[:, np.arange(A), np.arange(A)] = 1.0
-    w, v = np.linalg.eigh(rho)
-    rho = np.einsum("nij,nj,nkj->nik", v, np.clip(w, 0.0, None), v)
-    d = np.sqrt(np.clip(np.diagonal(rho, axis1=1, axis2=2), 1e-300, None))
-    rho = rho / (d[:, :, None] * d[:, None, :])
-    return {(a, b): (rho[:, a, b] * np.sqrt(alpha[a] * alpha[b]))[:, None, None] * X[:, j]
-            for j, (a, b) in enumerate(pairs)}
-
-
 def _residual_moments(steps: StepModel, filt: FilterResult, Z: np.ndarray, valid: np.ndarray,
                       fitted: np.ndarray, lam: np.ndarray, r2: np.ndarray, kick: np.ndarray,
                       prior: np.ndarray, draws: int
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``SmoothSettings.band_alpha_from = "residual"``: per frame and angle (n, A) the
+    """``SmoothSettings.band_alpha_from = "shrunk"``: per frame and angle (n, A) the
     statistic ``ρᵀ λQ ρ`` of the backward sums ``ρ`` of the smoothing residual
-    ``z − x̂`` (the same gains run on it), and its expectations under the measurement
-    noise and the event kicks alone and under the model's white process noise alone, by
-    ``draws`` simulated runs of the model (fixed seed)."""
+    ``z − x̂`` (the same gains run on it), its expectations under the measurement noise
+    and the event kicks alone and under the model's white process noise alone, by
+    ``draws`` simulated runs of the model each (fixed seed), and (n, draws, A) its
+    values on the sums of one run of each, data with ``α = 1``."""
     n, A = Z.shape[1], Z.shape[0]
     rng = np.random.default_rng(20261124)
     half = A * draws
@@ -610,9 +549,29 @@ def _residual_moments(steps: StepModel, filt: FilterResult, Z: np.ndarray, valid
     rho = backward_sums(steps, refiltered(steps, filt.series(everyone), res, ok,
                                           np.zeros((A + 2 * half, steps.k))), ok)
     stat = np.einsum("nai,nij,naj->na", rho, steps.Q0, rho, optimize=True) * lam[everyone].T
-    null = stat[:, A:A + half].reshape(n, draws, A)
+    null = stat[:, A:A + half].reshape(n, draws, A).mean(axis=1)
     slope = stat[:, A + half:].reshape(n, draws, A).mean(axis=1)
-    return stat[:, :A], null.mean(axis=1), slope, null
+    both = rho[:, A:A + half] + rho[:, A + half:]  # ρ is linear in the data
+    alt = np.einsum("nai,nij,naj->na", both, steps.Q0, both, optimize=True) * lam[many[:half]].T
+    return stat[:, :A], null, slope, alt.reshape(n, draws, A)
+
+
+def shrunk_alpha(prior: np.ndarray, estimate: np.ndarray, variance: np.ndarray,
+                 frames: np.ndarray) -> np.ndarray:
+    """Empirical-Bayes shrinkage of the frames' ``estimate`` (any shape) toward ``prior``:
+    with ``estimate ~ N(α, variance)`` and ``α ~ N(prior, τ²)`` the posterior mean
+    ``prior + τ² / (τ² + variance) · (estimate − prior)``, ``τ²`` by DerSimonian and
+    Laird's moment estimator over the ``frames`` (bool mask): ``Σ w (estimate − prior)²``
+    has the expectation ``N + τ² Σ w`` (``w = 1 / variance``; ``N`` frames, 0 if
+    negative). ``variance = inf``: the prior."""
+    w = np.where(frames, 1.0 / variance, 0.0)
+    d2 = np.where(frames, (estimate - prior) ** 2, 0.0)
+    total = float(np.sum(w))
+    tau2 = max((float(np.sum(w * d2)) - int(np.sum(frames & (w > 0)))) / total, 0.0) \
+        if total > 0 else 0.0
+    with np.errstate(invalid="ignore"):
+        weight = np.where(np.isfinite(variance), tau2 / (tau2 + variance), 0.0)
+    return prior + np.nan_to_num(weight) * (estimate - prior)
 
 
 def smooth(
@@ -660,8 +619,6 @@ def smooth(
     frame), ``cov``
     ({angle: (n, k, k) smoothed covariance of [angle, rate, acceleration(, jerk)] in SI,
     with the bias term of ``SmoothSettings.bias_band``, NaN outside the track}),
-    ``cross_cov`` ({(angle a, angle b): (n, k, k) ``E[e_a e_bᵀ]``, SI, 0 outside either
-    track}; empty unless ``SmoothSettings.band_cross`` is ``"white"``),
     ``model``, ``loglik`` (sum over angles), ``notes``.
 
     Raises
@@ -949,7 +906,6 @@ def smooth(
             Ps[:, a] = res["Ps"]
 
     band_scale = np.ones((A, n))
-    cross: dict[tuple[int, int], np.ndarray] = {}
     if settings.band_variance != "posterior":
         used = filt.series(np.arange(A))
         own = SmootherResult(sm.x[:, :A], sm.P[:, :A], sm.r[:, :A], sm.N[:, :A])
@@ -964,44 +920,45 @@ def smooth(
             # times the model's; a method-of-moments α over a Gaussian window
             lam_q = lam_use[:, :, None, None] * steps.Q0[None]  # (A, n, k, k)
             lam_q = np.swapaxes(lam_q, 0, 1)  # (n, A, k, k)
-            if settings.band_alpha_from == "sums":
-                rr = sm.r[:, :A]
-                seen = np.einsum("nai,naij,naj->na", rr, lam_q, rr)
-                base = np.einsum("naij,naji->na", lam_q, R0)
-                slope = np.einsum("naij,naji->na", lam_q, sm.N[:, :A] - R0)
-                null = None
-            else:
-                seen, base, slope, null = _residual_moments(
+            rr = sm.r[:, :A]
+            seen = np.einsum("nai,naij,naj->na", rr, lam_q, rr)
+            base = np.einsum("naij,naji->na", lam_q, R0)
+            slope = np.einsum("naij,naji->na", lam_q, sm.N[:, :A] - R0)
+            shrink = settings.band_alpha_from == "shrunk"
+            if shrink:
+                seen_r, base_r, slope_r, alt = _residual_moments(
                     steps, used, Z, valid, xs[:, :, 0].T, lam_use,
                     np.array([e.r2 for e in est]), kick, P0, settings.band_draws)
             alpha = np.ones((A, n))
+            a_res = np.zeros((A, n))
+            v_res = np.full((A, n), np.inf)
             noisy = np.flatnonzero(steps.Q0[:, 0, 0] > 0)
+            frames = np.zeros((A, n), bool)
             for a in range(A):
                 tc = np.exp(np.mean(np.log(lam_use[a, noisy]))) ** (-1.0 / (2 * k))
                 width = settings.band_window * tc
                 num = gaussian_filter1d(seen[:, a] - base[:, a], width, mode="constant")
                 den = gaussian_filter1d(slope[:, a], width, mode="constant")
-                if null is not None and settings.band_alpha_sd > 0:
-                    # the statistic's own scatter under noise alone (few degrees of
-                    # freedom): α at this many sd above its estimate
-                    spread = gaussian_filter1d(null[:, :, a], width, axis=0, mode="constant")
-                    num = num + settings.band_alpha_sd * spread.std(axis=1, ddof=1)
                 with np.errstate(invalid="ignore", divide="ignore"):
                     alpha[a] = np.where(den > 0, np.maximum(num, 0.0) / den, 1.0)
-            if settings.band_alpha_max is not None:
-                cap = np.full((A, n), float(settings.band_alpha_max))
-            elif settings.band_alpha_from == "sums":
-                cap = np.ones((A, n))
-            else:  # no more process noise than the likelihood's maximum
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    cap = np.where(lam_use > 0, lam_ml / lam_use, 1.0)
-            alpha = np.clip(alpha, 0.0, cap)
+                if shrink:
+                    # the residual's α and its sampling variance at α = 1 (the
+                    # windowed statistic's scatter over the draws of noise plus process)
+                    num = gaussian_filter1d(seen_r[:, a] - base_r[:, a], width, mode="constant")
+                    den = gaussian_filter1d(slope_r[:, a], width, mode="constant")
+                    sd = gaussian_filter1d(alt[:, :, a], width, axis=0,
+                                           mode="constant").std(axis=1, ddof=1)
+                    good = (den > 0) & (sd > 0)
+                    with np.errstate(invalid="ignore", divide="ignore"):
+                        a_res[a] = np.where(good, num / den, 0.0)
+                        v_res[a] = np.where(good, (sd / den) ** 2, np.inf)
+                    ok = np.flatnonzero(valid[a])
+                    frames[a, ok[0]:ok[-1] + 1] = steps.Q0[ok[0]:ok[-1] + 1, 0, 0] > 0
+            alpha = np.clip(alpha, 0.0, 1.0)
+            if shrink:
+                alpha = np.clip(shrunk_alpha(alpha, a_res, v_res, frames), 0.0, 1.0)
             band_scale = alpha
             Ps = E0 + alpha.T[:, :, None, None] * (Ps - E0)
-            if settings.band_cross == "white" and A > 1:
-                cross = _cross_process_share(steps, used, own, lam_use,
-                                             np.array([e.r2 for e in est]), alpha,
-                                             settings.band_window, k)
     if settings.bias_band:
         used = filt.series(np.arange(A))
 
@@ -1020,7 +977,6 @@ def smooth(
     scale = tau ** -np.arange(k)
     xs = xs * scale
     Ps = Ps * scale[:, None] * scale[None, :]
-    cross = {ab: c * scale[:, None] * scale[None, :] for ab, c in cross.items()}
     out = pd.DataFrame({"t": t}, index=log.index)
     cov = {}
     noise = {}
@@ -1089,15 +1045,6 @@ def smooth(
     out.attrs["event_sd"] = event_sd
     out.attrs["noise"] = noise
     out.attrs["cov"] = cov
-    cross_cov = {}
-    for (a, b), c in cross.items():
-        inside = np.zeros(n, bool)
-        ok_a, ok_b = np.flatnonzero(valid[a]), np.flatnonzero(valid[b])
-        inside[max(ok_a[0], ok_b[0]):min(ok_a[-1], ok_b[-1]) + 1] = True
-        c = c.copy()
-        c[~inside] = 0.0
-        cross_cov[(tracked[a], tracked[b])] = c
-    out.attrs["cross_cov"] = cross_cov
     out.attrs["model"] = model
     out.attrs["loglik"] = loglik
     out.attrs["notes"] = notes

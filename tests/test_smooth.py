@@ -266,34 +266,3 @@ def test_piece_before_the_release_is_bounded_by_the_whole_log():
         assert pieces[0]["q"] < noise["q"]  # the trough: far below
         unbounded = free.attrs["noise"][name]
         assert max(p["q"] for p in unbounded["pieces"]) > 2 * unbounded["q"]
-
-
-def test_cross_covariances_of_white_process_noise_are_a_valid_joint_covariance(shot240):
-    from trebuchet.ingest.smooth import SmoothSettings
-
-    log, _, est = shot240
-    assert est.attrs["cross_cov"] == {}
-    with pytest.raises(TrebuchetInputError, match="band_cross"):
-        SmoothSettings(band_cross="shape")
-    crossed = smooth(log, settings=SmoothSettings(band_cross="white"))
-    # the per-angle bands are those of the default
-    for a in ANGLES:
-        np.testing.assert_allclose(crossed[a + "_dd_sd"], est[a + "_dd_sd"], rtol=1e-12)
-    cc = crossed.attrs["cross_cov"]
-    assert set(cc) == {("theta", "psi"), ("theta", "phi"), ("psi", "phi")}
-    n = len(log)
-    full = np.zeros((n, 9, 9))
-    for i, a in enumerate(ANGLES):
-        full[:, 3 * i:3 * i + 3, 3 * i:3 * i + 3] = np.nan_to_num(crossed.attrs["cov"][a])
-    for (a, b), c in cc.items():
-        i, j = ANGLES.index(a), ANGLES.index(b)
-        assert c.shape == (n, 3, 3)
-        full[:, 3 * i:3 * i + 3, 3 * j:3 * j + 3] = c
-        full[:, 3 * j:3 * j + 3, 3 * i:3 * i + 3] = np.swapaxes(c, 1, 2)
-    d = np.sqrt(np.clip(np.diagonal(full, axis1=1, axis2=2), 1e-300, None))
-    corr = full / (d[:, :, None] * d[:, None, :])
-    assert np.linalg.eigvalsh(corr)[:, 0].min() > -1e-9  # positive semi-definite
-    # and not empty: the accelerations' errors do correlate somewhere in the shot
-    moving = (log["t"] > TRIGGER).to_numpy() & (log["t"] < RELEASE).to_numpy()
-    acc = [np.abs(corr[moving, 3 * i + 2, 3 * j + 2]).max() for i, j in ((0, 1), (0, 2), (1, 2))]
-    assert max(acc) > 0.2

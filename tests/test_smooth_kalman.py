@@ -11,7 +11,6 @@ from trebuchet.ingest.kalman_batch import (
     backward_sums,
     batch_kalman_filter,
     error_covariance,
-    error_cross_covariance,
     polynomial_transition,
     refiltered,
     simulated_model_runs,
@@ -155,66 +154,6 @@ def test_error_covariance_of_noise_alone_matches_simulation():
         rel = seen[100:, j, j] / want[100:, j, j]
         assert np.all(np.abs(rel - 1.0) < 0.12), (j, rel.min(), rel.max())
     assert np.all(want[100:, 2, 2] < 0.5 * sm.P[100:, 0, 2, 2])
-
-
-def test_error_cross_covariance_of_one_smoother_is_its_process_noise_share():
-    k = 3
-    steps, z, valid, x0, P0 = _case(k)
-    lam, kick, r2 = np.array([1e-3, 3e-2]), np.array([0.5, 2.0]), np.array([1.0, 0.3])
-    zz, vv = np.vstack([z, z]), np.vstack([valid, valid])
-    filt = batch_kalman_filter(zz, vv, steps, lam, kick, r2, np.stack([x0, x0]),
-                               np.stack([P0, P0]), store=True)
-    sm = backward_smoother(steps, filt, vv)
-    noise = 0.7 * lam[None, :, None, None] * steps.Q0[:, None]
-    want, want_r = error_covariance(steps, filt, sm, vv, np.zeros(2), noise,
-                                    np.zeros((2, k, k)), parts=True)
-    got, got_r = error_cross_covariance(steps, filt, sm, filt, sm, noise)
-    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12 * np.abs(want).max())
-    np.testing.assert_allclose(got_r, want_r, rtol=1e-9, atol=1e-12 * np.abs(want_r).max())
-
-
-def test_error_cross_covariance_of_two_smoothers_matches_simulation():
-    """Two series driven by white jerks of correlation −0.8 (the truth), each smoothed with
-    its own q and noise: the formula's error cross-covariance against 4000 runs."""
-    k, rho, runs = 3, -0.8, 4000
-    steps, _, valid, x0, P0 = _case(k, n=200)
-    steps = StepModel(steps.F, steps.Q0, np.zeros_like(steps.G))
-    lam, r2 = np.array([2e-3, 2e-2]), np.array([1.0, 0.3])
-    rng = np.random.default_rng(3)
-    x = np.zeros((2, runs, k))
-    truth = np.empty((steps.n, 2, runs, k))
-    for i in range(steps.n):
-        x = x @ steps.F[i].T
-        if np.any(steps.Q0[i]):
-            c = np.linalg.cholesky(steps.Q0[i])
-            w0 = rng.normal(size=(runs, k))
-            w1 = rho * w0 + np.sqrt(1 - rho**2) * rng.normal(size=(runs, k))
-            x = x + np.stack([w0 @ c.T * np.sqrt(lam[0]), w1 @ c.T * np.sqrt(lam[1])])
-        truth[i] = x
-    ok = np.broadcast_to(valid, (1, steps.n))
-    zeros_k = np.zeros((1, k))
-    xs, fs, ss = [], [], []
-    for b in range(2):
-        z = truth[:, b, :, 0].T + rng.normal(0.0, np.sqrt(r2[b]), (runs, steps.n))
-        filt = batch_kalman_filter(z[:1], ok, steps, lam[b:b + 1], np.zeros(1), r2[b:b + 1],
-                                   zeros_k, np.zeros((1, k, k)), store=True)
-        fs.append(filt)
-        ss.append(backward_smoother(steps, filt, ok))
-        many = refiltered(steps, filt.series(np.zeros(runs, int)), z,
-                          np.broadcast_to(valid, z.shape), np.zeros((runs, k)))
-        xs.append(smoothed_states(steps, many, np.broadcast_to(valid, z.shape)))
-    ea, eb = truth[:, 0] - xs[0], truth[:, 1] - xs[1]
-    seen = np.einsum("nbi,nbj->nij", ea, eb) / runs
-    noise = (rho * np.sqrt(lam[0] * lam[1]) * steps.Q0)[:, None]
-    want = error_cross_covariance(steps, fs[0], ss[0], fs[1], ss[1], noise)[0][:, 0]
-    sd_a = np.sqrt(np.diagonal(np.einsum("nbi,nbj->nij", ea, ea) / runs, axis1=1, axis2=2))
-    sd_b = np.sqrt(np.diagonal(np.einsum("nbi,nbj->nij", eb, eb) / runs, axis1=1, axis2=2))
-    for j in range(k):
-        corr_seen = seen[100:, j, j] / (sd_a[100:, j] * sd_b[100:, j])
-        corr_want = want[100:, j, j] / (sd_a[100:, j] * sd_b[100:, j])
-        assert np.max(np.abs(corr_seen - corr_want)) < 0.08, (j, corr_seen, corr_want)
-    # the accelerations' errors: a real correlation, which the formula reproduces
-    assert np.median(want[100:, 2, 2] / (sd_a[100:, 2] * sd_b[100:, 2])) < -0.3
 
 
 def test_backward_sums_are_the_smoothers():
