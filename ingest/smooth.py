@@ -227,7 +227,8 @@ class SmoothSettings:
     small 60 fps 0.1° 0.84 → 0.49, paper 60 fps 2° 0.98 → 0.71). Measured
     (ingest_accuracy, inside / narrow / wide on seeds 0–5, 6–11, 12–17, 18–23): sums
     157/0/3, 158/0/2, 160/0/0, 153/1/6; shrunk (default) 160/0/0, 160/0/0, 160/0/0,
-    156/1/3; |F_R| RMS on the target cells unchanged (0.6 / 1.2 / 2.2 %, seeds 0–5: the
+    156/1/3 (the direct form, inside of 160: 121 → 140 on seeds 0–5, 110 → 126 on
+    18–23); |F_R| RMS on the target cells unchanged (0.6 / 1.2 / 2.2 %, seeds 0–5: the
     estimates do not change); reconstruct() on 2 s at 1000 fps 0.34 s against 0.23 s
     (the draws). Single logs (sums → shrunk): the demo against its own scene 13 % of rows
     outside at most, median 4.3 % (unchanged); ``test_accuracy_at_extreme_rates[60-2.0]``
