@@ -253,6 +253,20 @@ def test_release_choice():
     assert release_choice(dataclasses.replace(fit, time=None), 1.05) == (False, None)
 
 
+def test_bad_input_is_refused(backyard):
+    log, _ = simulated_log(backyard, 60, 0.5, seed=0)
+    est = _quiet(smooth, log)
+    angles = {a: log[a].to_numpy() for a in ("theta", "psi")}
+    with pytest.raises(TrebuchetInputError, match="noise sd of psi"):
+        release_from_model(angles, est, backyard, None, {"theta": 0.01, "psi": 0.0})
+    with pytest.raises(TrebuchetInputError, match="theta has 3 values"):
+        release_from_model(angles | {"theta": np.zeros(3)}, est, backyard, None,
+                           {"theta": 0.01, "psi": 0.01})
+    with pytest.raises(TrebuchetInputError, match="lacks"):
+        release_from_model(angles, est.drop(columns="psi_dd_sd"), backyard, None,
+                           {"theta": 0.01, "psi": 0.01})
+
+
 def test_release_fit_settings_are_checked():
     for bad in ({"window_fraction": 0.0}, {"max_misfit": float("nan")},
                 {"sling_frame_penalty": -1.0}, {"min_window_frames": 4},
