@@ -515,8 +515,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
 
     Warns
     -----
-    ModelValidityWarning : angles outside the scene's geometry, a slack sling, or loads
-        the frame rate and noise do not resolve (the advisory).
+    ModelValidityWarning : angles outside the scene's geometry, a slack sling, loads
+        the frame rate and noise do not resolve (the advisory), or, where the sling's
+        track goes on past the release, accelerations that fit the scene's equations
+        neither in the sling nor released (``ReconstructOptions.release_model``).
     """
     if options is None:
         options = ReconstructOptions()
