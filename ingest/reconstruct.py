@@ -263,9 +263,7 @@ def _event_variance(t: np.ndarray, event: float | None, sd: float,
 
 def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
                      trigger: float | None, release: float | None,
-                     options: ReconstructOptions,
-                     cross: dict[tuple[str, str], np.ndarray] | None = None
-                     ) -> tuple[float | None, float]:
+                     options: ReconstructOptions) -> tuple[float | None, float]:
     """Lift-off (s, log time) and its sd (s) from the phase-I normal force on every row."""
     t = state["t"].to_numpy()
     trial = shot_phases(t, scene, trigger, None, None)
@@ -281,15 +279,16 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     # the trial phases have no phase 3, so the rows are independent: one stacked call
     prop = propagate(lambda s: _evaluate(s, np.resize(trial[rows], len(s)), scene,
                                          options.form, options.trough),
-                     sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True,
-                     cross={ab: c[rows] for ab, c in (cross or {}).items()})
+                     sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True)
     return when, lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
 
 
 def sling_track_end(log: pd.DataFrame, min_frames: int = 3) -> tuple[float, float] | None:
     """Release time (s) and its sd (s) when the sling angle's track ends at least
     ``min_frames`` frames before the others': midway between its last frame and the next,
-    sd = that gap / √12 (uniform). None otherwise."""
+    sd = that gap / √12 (uniform); or, where ``read_log`` cut the track where a tracked
+    stone leaves its sling's circle (``attrs["leaves_sling"]``), that fitted time and its
+    sd. None otherwise."""
     t = log["t"].to_numpy(dtype=float)
     ok = {a: np.flatnonzero(np.isfinite(log[a].to_numpy(dtype=float))) for a in ANGLES}
     if any(v.size == 0 for v in ok.values()):
@@ -298,6 +297,9 @@ def sling_track_end(log: pd.DataFrame, min_frames: int = 3) -> tuple[float, floa
     others = max(int(ok["theta"][-1]), int(ok["psi"][-1]))
     if others - last < min_frames or last + 1 >= t.size:
         return None
+    leaves = log.attrs.get("leaves_sling")
+    if leaves is not None and t[last] <= leaves["t"] < t[last + 1]:
+        return float(leaves["t"]), float(leaves["sd"])
     gap = t[last + 1] - t[last]
     return float(t[last] + 0.5 * gap), float(gap / np.sqrt(12.0))
 
@@ -319,8 +321,6 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     state = _state(est)
     cov = {a: np.asarray(c, dtype=float) for a, c in est.attrs["cov"].items()}
     cov = {a: c[:, :3, :3] for a, c in cov.items()}
-    cross = {ab: np.asarray(c, dtype=float)[:, :3, :3]
-             for ab, c in est.attrs.get("cross_cov", {}).items()}
     found = dict(est.attrs.get("events", {}))
     sources = dict(est.attrs.get("event_sources", {}))
     trigger = given["trigger"] if "trigger" in given else found.get("trigger")
@@ -344,7 +344,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
             event_sd["lift_off"] = 0.0
         else:
             lift, event_sd["lift_off"] = _detect_lift_off(state, cov, scene, trigger, release,
-                                                          options, cross)
+                                                          options)
             sources["lift_off"] = ("trough normal force reaches zero" if lift is not None
                                    else "the normal force never reaches zero before release")
     else:
@@ -352,7 +352,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     phase = shot_phases(t, scene, trigger, lift, release)
 
     prop = propagate(lambda s: _evaluate(s, phase, scene, options.form, options.trough),
-                     state, cov, order=propagation_order(options), cross=cross)
+                     state, cov, order=propagation_order(options))
     ev_var = (_event_variance(t, trigger, event_sd["trigger"], prop.value)
               + _event_variance(t, release, event_sd["release"], prop.value))
     sd = np.sqrt(prop.sd ** 2 + ev_var)
@@ -543,7 +543,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                  settings=smoother_settings(options))
     release_sd = None
     if track_end is not None:
-        est.attrs["event_sources"]["release"] = "end of the sling track"
+        leaves = log.attrs.get("leaves_sling")
+        est.attrs["event_sources"]["release"] = (
+            "the tracked stone leaves its sling's circle"
+            if leaves is not None and leaves["t"] == track_end[0] else "end of the sling track")
         release_sd = track_end[1]
     elif ("release" not in given and scene.projectile != "none"
           and options.release_model is not None):

@@ -67,8 +67,7 @@ def _shifts(state: pd.DataFrame, h: dict[str, np.ndarray], order: int
 
 def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFrame,
               cov: dict[str, np.ndarray], names: list[str] | None = None,
-              order: int = 2, stacked: bool = False,
-              cross: dict[tuple[str, str], np.ndarray] | None = None) -> Propagation:
+              order: int = 2, stacked: bool = False) -> Propagation:
     """Propagate the per-angle covariance ``cov`` ({angle: (n, 3, 3)}, SI; NaN = unknown)
     through ``evaluate`` (a vectorised function of a frame with ``<angle><suffix>``
     columns, returning loads) at ``state``. ``names``: output columns to propagate
@@ -78,10 +77,9 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
     ``stacked``: one call of ``evaluate`` on the unshifted and all shifted states one
     below the other instead of one call each: only for an ``evaluate`` whose rows do not
     depend on each other (it gets a frame that many times longer); far faster on a few
-    rows, where each call's fixed cost dominates. ``cross``: {(angle a, angle b): (n, 3, 3)}
-    cross-covariances ``E[e_a e_bᵀ]`` of two angles' errors (default none: the angles'
-    errors independent); they add ``2 Σ a_i a_j R_ij`` and ``Σ b_i b_j R_ij²`` over the
-    pairs of the two angles."""
+    rows, where each call's fixed cost dominates. The angles' errors are independent (their
+    cross-covariances through the shared process noise were measured and did not improve
+    the bands: see ``SmoothSettings``)."""
     if order not in (1, 2):
         raise ValueError(f"propagate: order must be 1 or 2, not {order!r}")
     covs = {a: np.asarray(C, dtype=float) for a, C in cov.items()}
@@ -116,8 +114,6 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
     step = 2 if order == 2 else 1
     at = {(a, i): 1 + step * j for j, (a, i) in enumerate(dict.fromkeys(
         (a, i) for a, i, _ in shifts))}
-    slopes: dict[str, np.ndarray] = {}
-    curves: dict[str, np.ndarray] = {}
     for angle, C in covs.items():
         hh = h[angle]
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -135,7 +131,6 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
             Lm = outputs[at[angle, i] + 1]
             a[i] = np.nan_to_num(0.5 * (Lp - Lm))
             b[i] = np.nan_to_num(Lp + Lm - 2.0 * L0)
-        slopes[angle], curves[angle] = a, b
         for i in range(3):  # the symmetric pairs once, doubled; R_ii is 1 (or 0)
             r = R[:, i, i][:, None]
             lin[2 * i] += a[i] * a[i] * r
@@ -147,18 +142,6 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
                 lin[i + j] += 2.0 * r * (a[i] * a[j])
                 if order == 2:
                     second += (r * r) * (b[i] * b[j])
-    for (pa, pb), X in (cross or {}).items():
-        if pa not in slopes or pb not in slopes:
-            continue
-        with np.errstate(invalid="ignore", divide="ignore"):
-            R = np.asarray(X, float) / (h[pa][:, :, None] * h[pb][:, None, :])
-        R = np.where(np.isfinite(R), R, 0.0)
-        for i in range(3):
-            for j in range(3):
-                r = R[:, i, j][:, None]
-                lin[i + j] += 2.0 * r * (slopes[pa][i] * slopes[pb][j])
-                if order == 2:
-                    second += (r * r) * (curves[pa][i] * curves[pb][j])
     var = lin.sum(axis=0) + second + bias * bias
     sd = np.sqrt(np.clip(var, 0.0, None))
     sd = np.where(np.isfinite(L0), sd, np.nan)
