@@ -46,7 +46,9 @@ def add_log_arguments(p: argparse.ArgumentParser) -> None:
     ``reconstruct`` and ``compare`` take the same): LOG, --scene, --fps, --column, --point."""
     p.add_argument("log", help="angle log (generic CSV, Tracker, Kinovea or DeepLabCut)")
     p.add_argument("--scene", required=True, help="scene file (TOML) of the engine filmed")
-    p.add_argument("--fps", type=float, help="frame rate, for logs with frame numbers only")
+    p.add_argument("--fps", type=float,
+                   help="frame rate (1/s): needed for frame numbers; also puts times "
+                   "written with too few decimals back on its exact frame grid")
     p.add_argument("--column", action="append", default=[], metavar="NAME=ANGLE",
                    help="the file's column or track NAME holds ANGLE (theta, psi or phi); "
                         "repeatable")

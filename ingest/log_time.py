@@ -86,7 +86,11 @@ def check_frame_rate(path: str | Path, t: np.ndarray, label: str, fps: float | N
             f"{path}, column '{label}': the frames lie {1.0 / rate:.3g} s apart ({rate:.3g} "
             f"fps), which no film of a shot has; if the times are in {hint}, say so in the "
             f"header, e.g. '{label.split('(')[0].split('[')[0].strip() or 't'} ({hint})'")
-    if fps is not None and abs(rate / fps - 1.0) > 0.05:
+    # times rounded coarser than the frames (60 fps to 0.01 s: steps 0.01, 0.02) move the
+    # median step; the mean of the steps near it does not
+    near = steps[np.abs(steps * rate - 1.0) <= 0.5]
+    mean_rate = 1.0 / float(np.mean(near))
+    if fps is not None and min(abs(rate / fps - 1.0), abs(mean_rate / fps - 1.0)) > 0.05:
         raise TrebuchetInputError(
             f"{path}: fps={fps:g} disagrees with the log's times in column '{label}', whose "
             f"frames come {rate:.4g} per s; correct fps or leave it out")
@@ -98,8 +102,10 @@ def decimal_rounding(t: np.ndarray, period_fraction: float = 1e-3) -> float | No
     Times written with a few decimals (Tracker's 0.0083/0.0084 s at 120 fps) are whole
     multiples of a power of ten; when that step exceeds ``period_fraction`` of the median
     frame period and the single-frame steps differ, the rounding shows in the frame rate
-    (120.5 fps from the median step). Times on an exact grid (0.01 s at 100 fps) or
-    written to 10 µs or finer give None.
+    (120.5 fps from the median step); a step shorter than 0.75 of the median is proof
+    of rounding too (60 fps written to 0.01 s: steps of 0.01 and 0.02 s). Times on an
+    exact grid (0.01 s at 100 fps) and times whose rounding is finer than
+    ``period_fraction`` of the period (6 decimals at up to 1000 fps) give None.
     """
     tv = t[np.isfinite(t)]
     dt = np.diff(tv)
@@ -108,7 +114,7 @@ def decimal_rounding(t: np.ndarray, period_fraction: float = 1e-3) -> float | No
         return None
     period = float(np.median(dt))
     single = dt[np.abs(dt / period - 1.0) < 0.5]
-    if np.ptp(single) <= 1e-9 * period:
+    if np.ptp(single) <= 1e-9 * period and not (dt < 0.75 * period).any():
         return None
     for decimals in range(6):
         step = 10.0**-decimals
@@ -118,12 +124,16 @@ def decimal_rounding(t: np.ndarray, period_fraction: float = 1e-3) -> float | No
 
 
 def snap_rounded_times(
-    path: str | Path, t: np.ndarray, rows: np.ndarray, fps: float | None, step: float
+    path: str | Path, t: np.ndarray, rows: np.ndarray, fps: float | None, step: float,
+    anchored: bool = True,
 ) -> tuple[np.ndarray, float | None, str | None]:
     """Replace times rounded to ``step`` seconds (e.g. Kinovea's whole ms) by frame times.
 
-    With ``fps`` known, each time becomes ``round(t * fps) / fps``; a time further than
-    ``step / 2`` from its frame is an error naming the row (the frame rate does not fit).
+    With ``fps`` known, each time becomes ``round(t * fps) / fps`` (``anchored``: times
+    counted from the video's frame 0, as Kinovea's) or, not anchored, the frame times
+    ``c + k / fps`` with ``k = round((t - t[0]) fps)`` and ``c`` fitted (a log whose
+    time starts anywhere); a time further than ``step / 2`` (anchored) or ``0.6 step``
+    from its frame is an error naming the row (the frame rate does not fit).
     Without ``fps`` the frame period is fitted by least squares over the frame indices
     implied by the steps; the fit is used only if it reproduces every time within
     ``0.6 step`` (rounding's half step and the fit's own small offset). Returns (times
@@ -134,7 +144,12 @@ def snap_rounded_times(
     if len(t) < 2:
         return t, fps, None
     if fps is not None:
-        snapped = np.round(t * fps) / fps
+        if anchored:
+            snapped = np.round(t * fps) / fps
+        else:
+            k = np.round((t - t[0]) * fps)
+            snapped = float(np.mean(t - k / fps)) + k / fps
+            tol = 0.6 * step
         off = np.abs(snapped - t)
         if (off > tol).any():
             k = int(np.argmax(off > tol))
@@ -142,7 +157,8 @@ def snap_rounded_times(
                 f"{path}, row {rows[k]}: time {t[k]:.6g} s is {off[k] * 1e3:.2f} ms from the "
                 f"nearest frame at fps={fps:g}; is the frame rate right?"
             )
-        how = f"the frame times k/fps at fps={fps:g}"
+        how = (f"the frame times k/fps at fps={fps:g}" if anchored
+               else f"a frame grid at fps={fps:g}")
         fitted = fps
     else:
         dt = np.diff(t)
@@ -150,15 +166,17 @@ def snap_rounded_times(
         if len(positive) == 0:
             return t, None, None
         period = float(np.median(positive))
-        if period <= 2 * step:
-            return t, None, (
-                f"times are rounded to {step * 1e3:g} ms, too coarse for the frame period "
-                f"of about {period * 1e3:.3g} ms; pass fps= to recover exact frame times"
-            )
+        coarse = (t, None, (
+            f"times are rounded to {step * 1e3:g} ms, too coarse for the frame period "
+            f"of about {float(np.mean(positive)) * 1e3:.3g} ms; they are used as written: "
+            "pass fps= to "
+            "recover exact frame times"))
+        if period <= 2 * step * (1 + 1e-9):
+            return coarse
         for _ in range(3):
             steps = np.round(dt / period)
             if (steps < 1).any():
-                return t, None, None
+                return coarse
             period = float(dt.sum() / steps.sum())
         k = np.concatenate([[0.0], np.cumsum(steps)])
         slope, intercept = np.polyfit(k, t, 1)

@@ -76,8 +76,9 @@ def read_log(
         The log file. Its format is recognised from its content.
     fps:
         Frame rate (1/s) for files with frame numbers and no time column (generic
-        ``frame`` column, DeepLabCut). For Kinovea files it turns times rounded to whole
-        milliseconds back into exact frame times.
+        ``frame`` column, DeepLabCut). For times rounded to whole milliseconds
+        (Kinovea) or written with too few decimals (Tracker's 0.1 ms) it gives the exact
+        frame times; without it they go on a fitted frame grid (a repair note says so).
     columns:
         ``{"<column or track name in the file>": "theta" | "psi" | "phi"}`` for files whose
         names are not the angles' own. Unmapped angles still use columns named after them.
@@ -121,7 +122,7 @@ def read_log(
     source = _read_source(path, numbered, fps, float(min_likelihood))
     check_time(path, source.t, source.rows, source.time_label)
     check_frame_rate(path, source.t, source.time_label, fps)
-    _snap_decimal_times(path, source)
+    _snap_decimal_times(path, source, fps)
     log = _choose_angles(path, source, mapping, points)
     for angle in ANGLES:
         values = log.angles[angle]
@@ -168,15 +169,16 @@ def _read_source(
     return read_generic(path, numbered, fps)
 
 
-def _snap_decimal_times(path: str | Path, source: LogSource) -> None:
-    """Times written with too few decimals (Tracker's 4) go back on a fitted frame grid,
-    with a repair note; Kinovea's whole milliseconds are handled by its reader."""
+def _snap_decimal_times(path: str | Path, source: LogSource, fps: float | None) -> None:
+    """Times written with too few decimals (Tracker's 4) go back on the frame grid of
+    ``fps`` (1/s) if given, else on a fitted one, with a repair note; Kinovea's whole
+    milliseconds are handled by its reader."""
     if source.frame is not None or source.fmt == "kinovea":
         return
     step = decimal_rounding(source.t)
     if step is None:
         return
-    t, _, note = snap_rounded_times(path, source.t, source.rows, None, step)
+    t, _, note = snap_rounded_times(path, source.t, source.rows, fps, step, anchored=False)
     source.t = t
     if note:
         source.repairs.append(note)

@@ -8,9 +8,10 @@ grows without bound. A point tracker that keeps following the stone then gives a
 angle" spigot → stone that is no sling angle at all; the rows from the first one off the
 circle are the released rows (the issue's "leaves the sling geometry").
 
-The level and the noise of ρ come from the log itself, not from the scene, so a sling that
-is slack at rest (ρ below its taut value) or a scene whose lengths are a little off does
-not matter: only the final excursion of ρ far above its typical value is looked at.
+The level and the noise of ρ come from the log itself, not from the scene, so a scene
+whose lengths are a little off does not matter, and each ratio is compared with the
+level of the rows just before it, so a sling slack at rest (ρ below its taut value) is
+no flight; only a final, sustained rise far above that level is looked at.
 
 Where the stone leaves, the sling's pull on it stops: ρ's rate is continuous (zero) and
 its acceleration jumps from zero to about T/(m L1). That is the shape of the trigger's
@@ -39,52 +40,81 @@ def sling_ratio(pivot: tuple[np.ndarray, np.ndarray], spigot: tuple[np.ndarray, 
         return np.where(beam > 0, sling / np.where(beam > 0, beam, 1.0), np.nan)
 
 
+def _noise_sd(values: np.ndarray) -> float:
+    """Noise sd of a series from the median absolute deviation of its successive
+    differences (which a smooth rise barely touches)."""
+    d = np.diff(values)
+    return 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+
+
+def _trailing_level(values: np.ndarray, rows: int) -> np.ndarray:
+    """Median of the ``rows`` values before each one (NaN for the first ``rows``)."""
+    level = np.full(values.size, np.nan)
+    if values.size > rows:
+        windows = np.lib.stride_tricks.sliding_window_view(values[:-1], rows)
+        level[rows:] = np.median(windows, axis=1)
+    return level
+
+
 def first_row_off_circle(ratio: np.ndarray, away: float = 1.05, noise_multiple: float = 4.0,
-                         min_rows: int = 8, end_rows: int = 3) -> int | None:
+                         level_rows: int = 10, min_flight_rows: int = 5,
+                         end_rows: int = 3) -> int | None:
     """First row of the final stretch on which the projectile is off its sling's circle.
 
-    Only when the track ends off the circle (the median of its last ``end_rows`` present
-    ratios above ``away`` × the median of all present ratios, and above it by
-    ``noise_multiple`` noise sd: the stone in flight): walking back from
-    there, the stretch ends at the last row whose ratio lies within ``noise_multiple``
-    noise sd of that median (the sd from the median absolute difference of successive
-    ratios, which the smooth rise in flight barely touches). None when the track does
-    not end in flight, or with fewer than ``min_rows`` present ratios.
+    Each present ratio is compared with the median of the ``level_rows`` present ones
+    before it (the circle's level there: a slack sling at rest, lower, has left that
+    window by the end of the swing); walking back from the end of the track, the
+    stretch starts after the last ratio within ``noise_multiple`` noise sd of its level.
+    It counts as a flight only with at least ``min_flight_rows`` rows, nearly all
+    (80 %) above the level at its start by ``noise_multiple`` sd, and the median of its
+    last ``end_rows`` ratios above ``away`` × that level (the stone far off the circle,
+    not a tracker's glitch on the last frames). None otherwise.
     """
     ok = np.flatnonzero(np.isfinite(ratio))
-    if ok.size < min_rows:
+    if ok.size < level_rows + min_flight_rows:
         return None
     values = ratio[ok]
-    level = float(np.median(values))
-    sd = 1.4826 * float(np.median(np.abs(np.diff(values) - np.median(np.diff(values))))) \
-        / np.sqrt(2.0)
-    end = float(np.median(values[-end_rows:]))
-    if not level > 0 or end <= max(away * level, level + noise_multiple * sd):
+    sd = _noise_sd(values)
+    level = _trailing_level(values, level_rows)
+    near = ~(values > level + noise_multiple * sd)  # the first rows (no level) count as near
+    first = int(np.flatnonzero(near)[-1]) + 1
+    if values.size - first < min_flight_rows:
         return None
-    near = np.flatnonzero(values <= level + noise_multiple * sd)
-    if near.size == 0:
+    base = float(level[first])
+    flight = values[first:]
+    if (not base > 0 or float(np.median(flight[-end_rows:])) <= away * base
+            or np.mean(flight > base + noise_multiple * sd) < 0.8):
         return None
-    last_near = int(near[-1])
-    return int(ok[last_near + 1])
+    return int(ok[first])
 
 
-def leaving_time(t: np.ndarray, ratio: np.ndarray, lead: float = 0.15,
-                 min_lead_rows: int = 20) -> tuple[float, float] | None:
+def leaving_time(t: np.ndarray, ratio: np.ndarray, lead: float = 0.3,
+                 min_lead_rows: int = 20, level_time: float = 0.03
+                 ) -> tuple[float, float] | None:
     """When (s) the projectile leaves its sling's circle, and the sd (s) of that time.
 
     ``t`` (n,) s increasing, ``ratio`` (n,) from :func:`sling_ratio`. Only when the track
-    ends in flight (:func:`first_row_off_circle`); the onset of ρ's final rise is fitted on
-    the rows from ``lead`` s (at least ``min_lead_rows`` rows) before the first row off
-    the circle to the end. None otherwise, or when no onset can be fitted.
+    ends in flight (:func:`first_row_off_circle`, each row's level from the rows of the
+    ``level_time`` s before it, at least 10); the onset of ρ's final rise is fitted on the
+    rows from ``lead`` s (at least ``min_lead_rows`` rows) before the first row off the
+    circle, or from the last slack row (below the circle) after that, to the end. None
+    otherwise, or when no onset can be fitted (then nothing is cut: the release is left to
+    the other searches).
     """
-    first = first_row_off_circle(ratio)
+    dt = float(np.median(np.diff(t)))
+    first = first_row_off_circle(ratio, level_rows=max(10, int(round(level_time / dt))))
     if first is None:
         return None
-    dt = float(np.median(np.diff(t)))
     lo = max(0, first - max(min_lead_rows, int(round(lead / dt))))
+    # the fit's rest is the taut sling: start after any slack row (below the circle)
+    before = ratio[lo:first]
+    ok = np.isfinite(before)
+    if ok.sum() > 2:
+        taut = float(np.median(before[ok]))
+        slack = np.flatnonzero(ok & (before < taut - 4.0 * _noise_sd(before[ok])))
+        if slack.size:
+            lo += int(slack[-1]) + 1
     sub_t, sub = t[lo:], ratio[lo:]
     sd = robust_noise_sd(sub_t, sub)
     found = trigger_estimate(sub_t, sub[None, :], np.array([sd]))
-    if found is None:
-        return float(0.5 * (t[first - 1] + t[first])) if first > 0 else float(t[0]), dt
     return found

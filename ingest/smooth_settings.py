@@ -212,7 +212,8 @@ class SmoothSettings:
     def __post_init__(self):
         check_choice("SmoothSettings", "band_variance", self.band_variance, BAND_VARIANCES)
         check_choice("SmoothSettings", "band_alpha_from", self.band_alpha_from, BAND_ALPHA_FROM)
-        if int(self.band_draws) != self.band_draws or self.band_draws < 1:
-            raise TrebuchetInputError("SmoothSettings: band_draws must be an integer ≥ 1")
+        if int(self.band_draws) != self.band_draws or self.band_draws < 2:
+            raise TrebuchetInputError("SmoothSettings: band_draws must be an integer ≥ 2 (the "
+                                      "draws' spread needs two)")
         if int(self.bias_iterations) != self.bias_iterations or self.bias_iterations < 1:
             raise TrebuchetInputError("SmoothSettings: bias_iterations must be an integer ≥ 1")

@@ -404,7 +404,7 @@ def test_shrunk_alpha_moves_as_far_as_the_estimates_scatter_beyond_their_varianc
 
 @pytest.mark.parametrize("bad", [{"band_variance": "wide"}, {"bias_iterations": 0},
                                  {"bias_iterations": 1.5}, {"band_alpha_from": "guess"},
-                                 {"band_draws": 0}])
+                                 {"band_draws": 0}, {"band_draws": 1}])
 def test_band_settings_are_checked(bad):
     with pytest.raises(TrebuchetInputError):
         SmoothSettings(**bad)

@@ -114,6 +114,29 @@ def test_times_rounded_to_a_few_decimals_go_back_on_the_frame_grid_with_a_note(t
     assert len(df.attrs["repairs"]) == 1
 
 
+def test_rounded_times_go_on_the_exact_grid_of_a_given_fps(tmp_path):
+    p = tmp_path / "rounded.csv"
+    p.write_text(_angle_rows([f"{0.8 + k / 120.0:.4f}" for k in K]))
+    with pytest.warns(TrebuchetDataWarning, match=r"rounded to 0\.1 ms .* grid at fps=120"):
+        df = read_log(p, fps=120)
+    np.testing.assert_allclose(np.diff(df["t"]), 1.0 / 120.0, rtol=1e-9)  # exact spacing
+    assert np.abs(df["t"] - (0.8 + K / 120.0)).max() < 0.5e-4  # offset within the rounding
+
+
+def test_times_rounded_coarser_than_the_frames_are_kept_with_a_note(tmp_path):
+    """60 fps written to 0.01 s: steps of 0.01 and 0.02 s, no grid to fit."""
+    p = tmp_path / "coarse.csv"
+    times = [f"{k / 60.0:.2f}" for k in K]
+    p.write_text(_angle_rows(times))
+    with pytest.warns(TrebuchetDataWarning, match="too coarse .* pass fps="):
+        df = read_log(p)
+    assert df["t"].tolist() == [float(x) for x in times]
+    with pytest.warns(TrebuchetDataWarning, match="grid at fps=60"):
+        exact = read_log(p, fps=60)
+    np.testing.assert_allclose(np.diff(exact["t"]), 1.0 / 60.0, rtol=1e-9)
+    assert np.abs(exact["t"] - K / 60.0).max() < 0.005
+
+
 def test_times_on_an_exact_grid_are_left_alone_without_a_note(tmp_path):
     p = tmp_path / "exact.csv"
     p.write_text(_angle_rows([f"{k / 100.0:.2f}" for k in K]))

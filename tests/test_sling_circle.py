@@ -40,6 +40,20 @@ def test_first_row_off_is_where_the_final_rise_leaves_the_noise():
     assert first_row_off_circle(ratio[:5]) is None
 
 
+def test_a_slack_sling_at_rest_and_glitches_on_the_last_rows_are_no_flight():
+    rng = np.random.default_rng(4)
+    taut = 0.8 + rng.normal(0.0, 0.002, 400)
+    slack = taut.copy()
+    slack[:300] -= 0.08  # slack for most of the log, taut in the swing, lost at release
+    assert first_row_off_circle(slack) is None
+    glitch = taut.copy()
+    glitch[-2:] += 0.3  # a tracker's two bad last frames
+    assert first_row_off_circle(glitch) is None
+    back = taut.copy()
+    back[-3:-1] += 1.0  # off, then back on the circle on the very last row
+    assert first_row_off_circle(back) is None
+
+
 def _dlc_with_stone_in_flight(tmp_path, fps: float = 120.0, noise_px: float = 1.0):
     """A DeepLabCut file of the paper's engine whose stone is tracked through its flight."""
     rng, scene, frames, t, true = ms.filmed_shot(0, ms.PAPER_SCENE, fps, start=0.8)
