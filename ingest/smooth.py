@@ -223,6 +223,16 @@ def _residual_moments(steps: StepModel, filt: FilterResult, Z: np.ndarray, valid
     return stat[:, :A], null, slope, alt.reshape(n, draws, A)
 
 
+def _earlier_estimate(noise: Mapping[str, float], tau: float, k: int) -> NoiseEstimate:
+    """A :class:`NoiseEstimate` (smoother units, frames of ``tau`` s, ``k`` states) from
+    one angle's entry of an earlier smoothing's ``attrs["noise"]`` (SI: ``q``, ``q_ml``
+    rad²/s^(2k−1), ``r_sd`` rad)."""
+    r2 = float(noise["r_sd"]) ** 2
+    unit = tau ** (2 * k - 1) / r2
+    return NoiseEstimate(float(noise["q_ml"]) * unit, float(noise["q"]) * unit, r2,
+                         float(noise.get("loglik", np.nan)), bool(noise.get("at_grid_edge")))
+
+
 def shrunk_alpha(prior: np.ndarray, estimate: np.ndarray, variance: np.ndarray,
                  frames: np.ndarray) -> np.ndarray:
     """Empirical-Bayes shrinkage of the frames' ``estimate`` (any shape) toward ``prior``:
@@ -250,6 +260,7 @@ def smooth(
     events: Mapping[str, float | None] | None = None,
     backend: str = "numpy",
     settings: SmoothSettings | None = None,
+    tuned: Mapping[str, Mapping[str, float]] | None = None,
 ) -> pd.DataFrame:
     """Smoothed angles (rad), rates (rad/s), accelerations (rad/s²) and their sd.
 
@@ -271,6 +282,14 @@ def smooth(
         (``log.attrs["source"]``) and the event.
     backend : ``"numpy"`` (batched, default) or ``"filterpy"`` (final pass via filterpy).
     settings : :class:`SmoothSettings`.
+    tuned : ``attrs["noise"]`` of an earlier smoothing of the same log with other events
+        (``reconstruct`` smooths again where the engine's equations move the release):
+        its ``q`` and ``q_ml`` (rad²/s⁵ or rad²/s⁷) and ``r_sd`` (rad) per angle stand in
+        for the single-``q`` noise search. Used only with local noise
+        (``SmoothSettings.local_noise``), whose scale is then fitted again by maximum
+        likelihood on the new events, and only where neither ``q`` nor ``r`` is given
+        and every tracked angle has its entry (and not for ``"select"``/``"average"``);
+        else the search runs as usual.
 
     Returns
     -------
@@ -502,7 +521,12 @@ def smooth(
     scan = "release" not in given  # one q per angle for the release scan, pieces after it
     # local noise: its shape comes from a smoother at the grid point nearest the
     # maximum-likelihood q of the last tuning (which must have run on the final steps)
-    est, nearest = tune(steps, grid, store=shaped and not scan)
+    earlier = (shaped and tuned is not None and len(free) == A
+               and not np.isfinite(r2_given).any() and all(a in tuned for a in tracked))
+    if earlier:  # the local noise's shape then comes from a smoother at this q_ml
+        est, nearest = [_earlier_estimate(tuned[a], tau, k) for a in tracked], None
+    else:
+        est, nearest = tune(steps, grid, store=shaped and not scan)
     lam_use, lam_ml, bounds = tune_pieces(steps, est, start, release_index(rel_s),
                                           pieces=not scan)
     if scan or not shaped:

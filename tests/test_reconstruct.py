@@ -9,9 +9,15 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
-from trebuchet.ingest.reconstruct import ReconstructOptions, loads_from_smoothed, reconstruct
+from trebuchet.ingest.reconstruct import (
+    ReconstructOptions,
+    checking_settings,
+    loads_from_smoothed,
+    reconstruct,
+    sling_track_end,
+)
 from trebuchet.ingest.simulated_log import SMALL_ENGINE, simulated_log
-from trebuchet.ingest.smooth import smooth
+from trebuchet.ingest.smooth import SmoothSettings, smooth
 from trebuchet.ingest.uncertainty import propagate
 from trebuchet.model.forces import LOAD_COLUMNS
 from trebuchet.model.scene import Scene
@@ -293,3 +299,35 @@ def test_presets_are_named_and_trade_order(horsdal):
     assert _rms_rel(fast, truth, "F_R_abs") < 0.05
     with pytest.raises(TrebuchetInputError, match="preset"):
         ReconstructOptions(preset="quick")
+
+
+def test_the_checking_smoothing_finds_the_same_events(horsdal):
+    """The release check's first smoothing (no band calibration, coarser noise search)
+    finds the trigger and release the full one finds: both come before what it skips."""
+    log, _ = simulated_log(horsdal, 240, 0.5, seed=3)
+    lean = _quiet(smooth, log, settings=checking_settings(SmoothSettings()))
+    full = _quiet(smooth, log)
+    assert lean.attrs["events"] == full.attrs["events"]
+    assert lean.attrs["events"]["release"] is not None
+
+
+def test_a_second_smoothing_may_reuse_the_noise_search(horsdal):
+    """``tuned``: an earlier smoothing's noise (here the checking one, without the
+    release) in place of the search; local noise refits its scale, so the result is
+    that of a new search within a small part of its sd. Ignored where q is given."""
+    log, truth = simulated_log(horsdal, 240, 0.5, seed=3)
+    events = {"release": sling_track_end(log)[0]}
+    earlier = _quiet(smooth, log, settings=checking_settings(SmoothSettings()))
+    new = _quiet(smooth, log, events=events)
+    reused = _quiet(smooth, log, events=events, tuned=earlier.attrs["noise"])
+    moving = truth["phase"].to_numpy() > 0
+    for a in ("theta", "psi", "phi"):
+        ratio = reused.attrs["noise"][a]["q"] / new.attrs["noise"][a]["q"]
+        assert abs(np.log10(ratio)) < 0.25, (a, ratio)
+        z = np.abs((reused[a + "_dd"] - new[a + "_dd"]) / new[a + "_dd_sd"]).to_numpy()[moving]
+        z = z[np.isfinite(z)]  # phi ends with its track
+        assert z.size > 100 and np.median(z) < 0.3 and np.max(z) < 1.0, (a, np.median(z), np.max(z))
+    q = {a: new.attrs["noise"][a]["q"] for a in ("theta", "psi", "phi")}
+    given = _quiet(smooth, log, events=events, q=q)
+    ignored = _quiet(smooth, log, events=events, q=q, tuned=earlier.attrs["noise"])
+    np.testing.assert_array_equal(ignored["theta_dd"].to_numpy(), given["theta_dd"].to_numpy())
