@@ -47,7 +47,7 @@ from trebuchet.model.scene import Scene, as_scene
 from .advisory import resolution_advisories
 from .lift_off import lift_off_sd, lift_off_time
 from .noise_tuning import NoiseSearch
-from .release_model import ReleaseFit, release_choice, release_from_model
+from .release_model import ReleaseFit, release_choice, release_from_model, scene_doubt
 from .scene_fit import geometry_findings, warn_findings
 from .smooth import ANGLES, SUFFIXES, SmoothSettings, checked_events, smooth, validated_log
 from .uncertainty import propagate
@@ -432,7 +432,9 @@ def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene
     smoothed again with it given (the noise search's result of ``est`` standing in for
     a new one: same log, only the release moves), its source says so and a note tells
     both times; else it is smoothed again with the full settings, as without the check.
-    A model that fits neither phase warns (ModelValidityWarning)."""
+    A model that fits neither phase warns (ModelValidityWarning), and so do angles that
+    fit it near the release worse than their noise allows (:func:`.scene_doubt`; the
+    model's release is still used)."""
     settings = options.release_model
     noise = est.attrs.get("noise", {})
     if not all(a in noise for a in ("theta", "psi")):
@@ -449,14 +451,19 @@ def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene
     t = est["t"].to_numpy(dtype=float)
     sd_free = options.event_sd_frames * float(np.median(np.diff(t)))
     use, sentence = release_choice(fitted, found.get("release"), settings)
+    name = Path(str(log.attrs.get("source", "log"))).name
     if sentence is not None and not use:
-        warnings.warn(f"{Path(str(log.attrs.get('source', 'log'))).name}: {sentence}",
-                      ModelValidityWarning, stacklevel=3)
+        warnings.warn(f"{name}: {sentence}", ModelValidityWarning, stacklevel=3)
+    doubt = scene_doubt(fitted, settings)
+    if doubt is not None:
+        warnings.warn(f"{name}: {doubt}", ModelValidityWarning, stacklevel=3)
     settings_full = smoother_settings(options)
     if not use:
         if checking_settings(settings_full) != settings_full:
             est = smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
                          settings=settings_full)
+        if doubt is not None:
+            est.attrs["notes"] = [*est.attrs.get("notes", []), doubt]
         if sentence is not None:
             est.attrs["notes"] = [*est.attrs.get("notes", []), sentence]
             return est, None
@@ -469,7 +476,7 @@ def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene
                  settings=settings_full, tuned=noise)
     est.attrs["event_sources"]["release"] = fitted.how
     est.attrs["notes"] = [*notes, *(n for n in est.attrs.get("notes", []) if n not in notes),
-                          sentence]
+                          sentence, *([doubt] if doubt is not None else [])]
     return est, fitted.sd
 
 

@@ -20,6 +20,7 @@ from trebuchet.ingest.release_model import (
     release_choice,
     release_from_model,
     release_jump_chi2,
+    scene_doubt,
 )
 from trebuchet.ingest.simulated_log import simulated_log
 from trebuchet.ingest.smooth import smooth
@@ -155,6 +156,36 @@ def test_a_sling_track_that_ends_at_the_release_is_unchanged(horsdal):
     assert res.attrs["events"] == off.attrs["events"]
     assert res.attrs["event_sd"] == off.attrs["event_sd"]
     np.testing.assert_array_equal(res["F_S_abs"].to_numpy(), off["F_S_abs"].to_numpy())
+
+
+def test_a_scene_a_little_off_warns_where_the_right_one_does_not(horsdal):
+    """The projectile's mass doubled passes the misfit check (the phases still fit the
+    accelerations within the model-error floor) but the angles near the release fit its
+    equations far worse than their noise: a warning naming the parameters."""
+    log, _ = continued_sling_log(horsdal, 240, 0.5, "pendulum", seed=0)
+    heavy = dataclasses.replace(horsdal, engine=dataclasses.replace(
+        horsdal.engine, m=2.0 * horsdal.engine.m))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = reconstruct(log, heavy)
+    doubts = [str(w.message) for w in caught if "a little off" in str(w.message)]
+    assert len(doubts) == 1 and "mass m" in doubts[0] and "L4" in doubts[0]
+    assert any("a little off" in n for n in res.attrs["notes"])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        right = reconstruct(log, horsdal)
+    assert not [w for w in caught if "a little off" in str(w.message)]
+    assert right.attrs["event_sources"]["release"] == SOURCE
+
+
+def test_scene_doubt():
+    fit = ModelRelease(1.0, 0.002, 0.2, 4.0, 100.0, SOURCE, 1e-9)
+    assert "a little off" in scene_doubt(fit)
+    assert scene_doubt(dataclasses.replace(fit, fit_chance=0.3)) is None
+    assert scene_doubt(dataclasses.replace(fit, misfit=12.0)) is None  # another warning
+    assert scene_doubt(dataclasses.replace(fit, time=None)) is None
+    assert scene_doubt(ModelRelease(1.0, 0.002, 0.2, 1.0, 100.0, SOURCE)) is None  # NaN
+    assert scene_doubt(fit, ReleaseFit(min_fit_chance=1e-12)) is None
 
 
 def test_another_engine_than_the_scene_warns_and_keeps_the_smoothers_release(horsdal,
