@@ -303,7 +303,7 @@ def test_presets_are_named_and_trade_order(horsdal):
 
 def test_the_checking_smoothing_finds_the_same_events(horsdal):
     """The release check's first smoothing (no band calibration, coarser noise search)
-    finds the trigger and release the full one finds: both come before what it skips."""
+    finds the trigger and release the full one finds on this log."""
     log, _ = simulated_log(horsdal, 240, 0.5, seed=3)
     lean = _quiet(smooth, log, settings=checking_settings(SmoothSettings()))
     full = _quiet(smooth, log)

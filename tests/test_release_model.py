@@ -138,6 +138,9 @@ def test_the_model_free_release_misses_where_the_equations_find_it(backyard):
     free_err = _release_error_frames(free, truth, fps)
     err = _release_error_frames(res, truth, fps)
     assert res.attrs["event_sources"]["release"] == SOURCE
+    assert np.any(res.attrs["noise"]["theta"]["band_scale"] < 1.0)  # the full smoothing's
+    assert res.attrs["event_sources"]["trigger"] == free.attrs["event_sources"]["trigger"]
+    assert res.attrs["event_sd"]["trigger"] == free.attrs["event_sd"]["trigger"]
     assert abs(err) <= 4.0 and abs(err) <= 3.0 * res.attrs["event_sd"]["release"] * fps
     assert abs(_peak_error(res, truth)) < 0.05
     if abs(free_err) > 10:  # the case the check is for: the note says how far apart
@@ -194,6 +197,8 @@ def test_another_engine_than_the_scene_warns_and_keeps_the_smoothers_release(hor
     with pytest.warns(ModelValidityWarning, match="is the scene the engine filmed"):
         res = reconstruct(log, horsdal)
     assert res.attrs["event_sources"]["release"] != SOURCE
+    # the kept smoothing has the calibrated bands, not the checking smoothing's posterior
+    assert np.any(res.attrs["noise"]["theta"]["band_scale"] < 1.0)
 
 
 # ----------------------------------------------------------------------------- pieces
