@@ -143,11 +143,13 @@ class ReconstructOptions:
     measured θ̈, ψ̈ follow phase II before it and phase III after it); where the two
     disagree, or the smoother found no release, the model's release is handed to the
     smoother (a second smoothing) with its sd. None: no check. The first smoothing then
-    runs with :func:`checking_settings` and the second takes its noise search's result
-    (``smooth(tuned=…)``); where the model's release is not used the log is smoothed
-    again with the full settings (2 s at 1000 fps: about 0.47 s against 0.7 s for two
-    full smoothings; accuracy on the 192 logs of :mod:`.release_model`: release error
-    median 0.24, 90 % 1.5 frames, 97 % within 2 sd, peak |F_S| 3.5 % / 9.8 %).
+    runs with :func:`checking_settings` and the second, with the full settings and a
+    release given (the model's, or where it is not used the smoother's own), takes its
+    trigger and noise search (``smooth(tuned=…)``; 2 s at 1000 fps: about 0.47 s against
+    0.7 s for two full smoothings; accuracy on the 192 logs of :mod:`.release_model`:
+    release error median 0.24, 90 % 1.5 frames, 97 % within 2 sd, peak |F_S| 3.5 % /
+    9.8 %). Angles near the release that fit the scene's equations worse than their
+    noise allows warn (:func:`~.release_model.scene_doubt`: a scene a little off).
     """
 
     form: str = "projected"
