@@ -234,13 +234,17 @@ def _state(est: pd.DataFrame) -> pd.DataFrame:
 
 
 def _release_within_sling_track(t: np.ndarray, phi: np.ndarray, release: float) -> float:
-    """A detected release (s) no later than halfway from the sling track's last frame to
-    the next one: a row after the track ends has no sling angle, so it is released."""
+    """A detected release (s) before the first row after the sling track's end (that row
+    has no sling angle, so it is released); one at or after that row goes halfway from the
+    track's last frame to it. A release inside the last interval (the fitted time a
+    tracked stone leaves its sling's circle) stands."""
     ok = np.flatnonzero(np.isfinite(phi))
     if ok.size == 0 or ok[-1] >= t.size - 1:
         return release
     last = int(ok[-1])
-    return float(min(release, 0.5 * (t[last] + t[last + 1])))
+    if release < t[last + 1]:
+        return release
+    return float(0.5 * (t[last] + t[last + 1]))
 
 
 def _event_variance(t: np.ndarray, event: float | None, sd: float,
@@ -445,8 +449,13 @@ def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene
     settings = options.release_model
     noise = est.attrs.get("noise", {})
     if not all(a in noise for a in ("theta", "psi")):  # no check: the full smoothing
-        return smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
-                      settings=smoother_settings(options)), None
+        full = smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
+                      settings=smoother_settings(options))
+        missing = " and ".join(a for a in ("theta", "psi") if a not in noise)
+        full.attrs["notes"] = [*full.attrs.get("notes", []),
+                               f"the release was not checked against the engine's equations "
+                               f"({missing} not tracked); it comes from the jump search alone"]
+        return full, None
     angles = {}
     for a in ("theta", "psi"):
         z = log[a].to_numpy(dtype=float).copy()

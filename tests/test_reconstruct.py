@@ -331,3 +331,34 @@ def test_a_second_smoothing_may_reuse_the_noise_search(horsdal):
     given = _quiet(smooth, log, events=events, q=q)
     ignored = _quiet(smooth, log, events=events, q=q, tuned=earlier.attrs["noise"])
     np.testing.assert_array_equal(ignored["theta_dd"].to_numpy(), given["theta_dd"].to_numpy())
+
+
+def test_a_release_inside_the_sling_tracks_last_interval_stands(horsdal):
+    """The fitted time a tracked stone leaves its sling's circle lies between the sling's
+    last frame and the next; it is not pulled back to their midpoint."""
+    log, _ = simulated_log(horsdal, 120, 0.3, seed=2)
+    t = log["t"].to_numpy()
+    last = int(np.flatnonzero(np.isfinite(log["phi"].to_numpy()))[-1])
+    late = float(t[last] + 0.8 * (t[last + 1] - t[last]))
+    log.attrs["leaves_sling"] = {"t": late, "sd": 0.002}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = reconstruct(log, horsdal)
+    assert res.attrs["events"]["release"] == late
+    assert res.attrs["event_sd"]["release"] == 0.002
+    assert (res["phase"].to_numpy()[t > late] == 3).all()
+
+
+def test_without_psi_the_release_check_is_skipped_and_a_note_says_so(horsdal):
+    log, truth = simulated_log(horsdal, 240, 0.3, seed=3)
+    t, phi = log["t"].to_numpy(), log["phi"].to_numpy()
+    ok = np.flatnonzero(np.isfinite(phi))
+    rate = (phi[ok[-1]] - phi[ok[-5]]) / (t[ok[-1]] - t[ok[-5]])
+    after = t > t[ok[-1]]
+    log.loc[after, "phi"] = phi[ok[-1]] + rate * (t[after] - t[ok[-1]])  # the track goes on
+    log["psi"] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = reconstruct(log, horsdal)
+    assert any("not checked against the engine's equations (psi not tracked)" in n
+               for n in res.attrs["notes"])
