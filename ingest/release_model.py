@@ -263,11 +263,12 @@ def _profile_mean_sd(grid: np.ndarray, loglik: np.ndarray, step: float) -> tuple
 def _state(est: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """``t`` (s), the angles (rad), rates (rad/s), accelerations (rad/s²) and the
     accelerations' sd of a smoother output, as float arrays."""
-    missing = [c for c in ("t", "theta_dd_sd", "psi_dd_sd") if c not in est]
+    cols = ["t"] + [a + s for a in ("theta", "psi", "phi") for s in ("", "_d", "_dd", "_dd_sd")]
+    missing = [c for c in cols if c not in est]
     if missing:
-        raise TrebuchetInputError(f"release_from_model: the smoothed log lacks {missing}")
-    cols = [a + s for a in ("theta", "psi", "phi") for s in ("", "_d", "_dd", "_dd_sd")]
-    return {c: np.asarray(est[c], dtype=float) for c in ["t", *cols]}
+        raise TrebuchetInputError("release_from_model: the smoothed log lacks "
+                                  f"{', '.join(missing)} (pass the output of smooth)")
+    return {c: np.asarray(est[c], dtype=float) for c in cols}
 
 
 def release_from_model(log_angles: Mapping[str, np.ndarray], est: Mapping[str, np.ndarray],
@@ -284,6 +285,8 @@ def release_from_model(log_angles: Mapping[str, np.ndarray], est: Mapping[str, n
     s = _state(est)
     t = s["t"]
     for a in ("theta", "psi"):
+        if a not in log_angles:
+            raise TrebuchetInputError(f"release_from_model: no raw {a} in log_angles")
         if np.shape(log_angles[a]) != t.shape:
             raise TrebuchetInputError(f"release_from_model: {a} has {np.size(log_angles[a])} "
                                       f"values for {t.size} smoothed rows")

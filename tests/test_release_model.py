@@ -301,6 +301,12 @@ def test_bad_input_is_refused(backyard):
     with pytest.raises(TrebuchetInputError, match="lacks"):
         release_from_model(angles, est.drop(columns="psi_dd_sd"), backyard, None,
                            {"theta": 0.01, "psi": 0.01})
+    with pytest.raises(TrebuchetInputError, match="lacks phi_d"):
+        release_from_model(angles, est.drop(columns="phi_d"), backyard, None,
+                           {"theta": 0.01, "psi": 0.01})
+    with pytest.raises(TrebuchetInputError, match="no raw psi"):
+        release_from_model({"theta": angles["theta"]}, est, backyard, None,
+                           {"theta": 0.01, "psi": 0.01})
 
 
 def test_release_fit_settings_are_checked():
