@@ -9,7 +9,6 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
-from scipy.integrate import solve_ivp
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
@@ -22,12 +21,8 @@ from trebuchet.ingest.release_model import (
     release_jump_chi2,
     scene_doubt,
 )
-from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.simulated_log import continued_sling_log, simulated_log
 from trebuchet.ingest.smooth import smooth
-from trebuchet.model import dynamics as dyn
-from trebuchet.model.kinematics import dot, rotated_acceleration, spigot_position, unit_perp
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import simulate
 
 SOURCE = "the engine's equations (phase II before, phase III after)"
 
@@ -39,59 +34,6 @@ def _quiet(fn, *args, **kw):
 
 
 # ----------------------------------------------------------------------------- logs
-
-
-def empty_sling_angle(scene: Scene, t_shot: np.ndarray, release: float
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """θ and φ (rad) at ``t_shot`` (s after the trigger, after ``release``) of an engine whose
-    sling, emptied at ``release``, swings on as a point pouch on a massless sling of length
-    L4 hung from the spigot: beam and counterweight by phase III, the pouch by
-    ``(a_spigot + L4 (φ̈ e_φ⊥ − φ̇² e_φ) − g)·e_φ⊥ = 0`` (the sling pulls along e_φ only),
-    from the simulated state at the release."""
-    e, g = scene.engine, scene.g
-    at = simulate(scene, t_eval=[release]).iloc[0]  # the row holds the phase that ends
-    y0 = [at[c] for c in ("theta", "psi", "theta_d", "psi_d", "phi", "phi_d")]
-    gravity = np.array([[0.0], [-g]])
-
-    def rates(_t, y):
-        th, ps, th_d, ps_d, ph, ph_d = y
-        th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
-        a_spigot = e.L1 * rotated_acceleration(np.array([th]), np.array([th_d]),
-                                               np.array([th_dd]))
-        perp = unit_perp(np.array([ph]))
-        ph_dd = (dot(gravity, perp)[0] - dot(a_spigot, perp)[0]) / e.L4
-        return [th_d, ps_d, th_dd, ps_dd, ph_d, ph_dd]
-
-    sol = solve_ivp(rates, (release, float(t_shot[-1])), y0, t_eval=t_shot, rtol=1e-10,
-                    atol=1e-12, method="DOP853")
-    return sol.y[0], sol.y[4]
-
-
-def continued_sling_log(scene: Scene, fps: float, noise_deg: float, kind: str, seed: int = 0,
-                        drop_fraction: float = 0.0) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """:func:`simulated_log` with the sling angle tracked past the release, with the same
-    noise: ``kind="pendulum"`` the empty sling (:func:`empty_sling_angle`), ``"stone"``
-    the direction from the spigot to the stone in flight (the truth's ``x_m``, ``y_m``)."""
-    log, truth = simulated_log(scene, fps, noise_deg, seed=seed, drop_fraction=drop_fraction)
-    trigger, release = (truth.attrs["events"][k] for k in ("trigger", "release"))
-    t = log["t"].to_numpy()
-    after = t > release
-    if kind == "pendulum":
-        theta, phi = empty_sling_angle(scene, t[after] - trigger, release - trigger)
-        assert np.max(np.abs(theta - truth["theta"].to_numpy()[after])) < 1e-6
-    else:
-        flight = truth.loc[after]
-        spigot = spigot_position(flight["theta"].to_numpy(), scene.engine, scene.start.H)
-        phi = np.arctan2(flight["y_m"].to_numpy() - spigot[1],
-                         flight["x_m"].to_numpy() - spigot[0])
-        last = truth["phi"].to_numpy()[~after][-1]
-        phi = np.unwrap(np.concatenate([[last], phi]))[1:]
-    rng = np.random.default_rng(seed + 7919)
-    z = phi + rng.normal(0.0, np.deg2rad(noise_deg), phi.size)
-    if drop_fraction:
-        z[rng.random(phi.size) < drop_fraction] = np.nan
-    log.loc[after, "phi"] = z
-    return log, truth
 
 
 def _release_error_frames(res: pd.DataFrame, truth: pd.DataFrame, fps: float) -> float:
