@@ -34,6 +34,8 @@ from math import factorial
 
 import numpy as np
 
+from .kalman_kernel import filter_steps
+
 
 def polynomial_transition(k: int, dt: np.ndarray) -> np.ndarray:
     """Transition matrices ``F(dt)`` of a ``k``-state polynomial (Taylor) model.
@@ -134,13 +136,6 @@ class FilterResult:
         )
 
 
-def _kron_transposed(F: np.ndarray) -> np.ndarray:
-    """``(F ⊗ F)ᵀ`` per step: ``vec(F P Fᵀ) = vec(P) @ (F ⊗ F)ᵀ`` for row-major ``vec``."""
-    n, k, _ = F.shape
-    kr = np.einsum("nai,nbj->nabij", F, F).reshape(n, k * k, k * k)
-    return np.ascontiguousarray(np.swapaxes(kr, 1, 2))
-
-
 def _rest_steps(steps: StepModel, has_noise: list[bool], x: np.ndarray, P: np.ndarray) -> int:
     """Number of leading steps with no process noise and no kick while only the first
     state is uncertain and set (``x0`` and ``P0`` zero elsewhere, ``P0[0, 0] > 0``) and
@@ -183,7 +178,7 @@ def batch_kalman_filter(
     x0, P0 : (B, k), (B, k, k) prior at frame 0, before the step-0 prediction.
     store : keep the histories needed by :func:`backward_smoother`.
 
-    Covariances are carried flattened, ``F P Fᵀ`` as one product with ``F ⊗ F``. The
+    The steps after a leading rest run compiled (:func:`.kalman_kernel.filter_steps`). The
     update is the simple form ``P = Pp - K H Pp`` (filterpy: Joseph form, equal in exact
     arithmetic; they differ by round-off, ~1e-9 of the largest variance near a kick).
     """
@@ -197,8 +192,6 @@ def batch_kalman_filter(
     per_step = lam.ndim == 2
     lam_c = lam if per_step else lam[:, None]
     kick_c = np.asarray(kick, float)[:, None]
-    FT = np.ascontiguousarray(np.swapaxes(steps.F, 1, 2))
-    KrT = _kron_transposed(steps.F)
     Q0 = steps.Q0.reshape(n, kk)
     G = steps.G.reshape(n, kk)
     # process noise of every step and series at once: lam Q0 + kick G, (n, B, kk)
@@ -206,8 +199,6 @@ def batch_kalman_filter(
     noise = lam_steps[:, :, None] * Q0[:, None, :] + kick_c.T[:, :, None] * G[:, None, :]
     has_noise = np.any(noise != 0.0, axis=(1, 2)).tolist()
     moves = (~np.all(steps.F == np.eye(k), axis=(1, 2))).tolist()
-    any_valid = valid.any(axis=0).tolist()
-    all_valid = valid.all(axis=0).tolist()
     zz_t = np.ascontiguousarray(zz.T)
     valid_t = np.ascontiguousarray(valid.T).astype(float)
 
@@ -241,27 +232,14 @@ def batch_kalman_filter(
         x[:, 0] = p_end * (x_pred[last] / p_pred[last] + v[last] * zz_t[last] / r2)
         P = np.zeros_like(P)
         P[:, 0] = p_end
-    for i in range(first, n):
-        if moves[i]:
-            x = x @ FT[i]
-            P = P @ KrT[i]
-        if has_noise[i]:
-            P = P + noise[i]
-        S = P[:, 0] + r2
-        S_hist[i] = S
-        if store:
-            xps[i] = x
-            Pps[i] = P
-        if any_valid[i]:
-            nu = zz_t[i] - x[:, 0]
-            if all_valid[i]:
-                K = P[:, :k] / S[:, None]
-            else:
-                nu = nu * valid_t[i]
-                K = P[:, :k] * (valid_t[i] / S)[:, None]
-            x = x + K * nu[:, None]
-            P = P - (K[:, :, None] * P[:, None, :k]).reshape(B, kk)
-            nu_hist[i] = nu
+    P3 = np.ascontiguousarray(P.reshape(B, k, k))
+    filter_steps(first, np.ascontiguousarray(steps.F), noise.reshape(n, B, k, k),
+                 np.array(moves, dtype=bool), np.array(has_noise, dtype=bool),
+                 np.ascontiguousarray(valid.T), zz_t, np.ascontiguousarray(r2, dtype=float),
+                 x, P3, S_hist, nu_hist, store,
+                 xps if store else np.empty((1, 1, 1)),
+                 Pps.reshape(n, B, k, k) if store else np.empty((1, 1, 1, 1)))
+    P = P3.reshape(B, kk)
     end = {"x_end": x, "P_end": P.reshape(B, k, k)}
     if not store:
         return FilterResult(S_hist, nu_hist, **end)
