@@ -233,12 +233,14 @@ def batch_kalman_filter(
         P = np.zeros_like(P)
         P[:, 0] = p_end
     P3 = np.ascontiguousarray(P.reshape(B, k, k))
-    filter_steps(first, np.ascontiguousarray(steps.F), noise.reshape(n, B, k, k),
+    c = np.ascontiguousarray  # one layout for every argument: one compiled signature
+    x = c(x, dtype=float)  # updated in place
+    filter_steps(int(first), c(steps.F, dtype=float), c(noise.reshape(n, B, k, k)),
                  np.array(moves, dtype=bool), np.array(has_noise, dtype=bool),
-                 np.ascontiguousarray(valid.T), zz_t, np.ascontiguousarray(r2, dtype=float),
-                 x, P3, S_hist, nu_hist, store,
+                 c(valid.T), c(zz_t, dtype=float), np.array(r2, dtype=float),
+                 x, P3, S_hist, nu_hist, bool(store),
                  xps if store else np.empty((1, 1, 1)),
-                 Pps.reshape(n, B, k, k) if store else np.empty((1, 1, 1, 1)))
+                 c(Pps.reshape(n, B, k, k)) if store else np.empty((1, 1, 1, 1)))
     P = P3.reshape(B, kk)
     end = {"x_end": x, "P_end": P.reshape(B, k, k)}
     if not store:

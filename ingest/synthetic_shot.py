@@ -89,3 +89,18 @@ def synthetic_log(
         z[rng.random(n) < drop_fraction] = np.nan
         log[name] = z
     return log, truth
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) the smoother's kernels by smoothing a short
+    synthetic log; ``make install`` calls it, so that a user's first smoothing does not wait
+    about 2 s for the compiler."""
+    import warnings
+
+    from .smooth import smooth
+
+    log, _ = synthetic_log(120.0, 0.5, duration=1.0, trigger=0.2, release=0.7,
+                           drop_fraction=0.02)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        smooth(log)
