@@ -3,11 +3,12 @@
 The filter is the one of filterpy's ``KalmanFilter.batch_filter`` (predict, then
 update, every step) and ``rts_smoother``, written for a scalar measurement of the
 first state component and batched in numpy over ``B`` series that share the time
-steps (several angles, several candidate process noises). A Python loop runs over
-the ``n`` time steps only; each step is a handful of numpy operations on
-``(B, k, k)`` arrays, so the cost hardly grows with ``B``. NOTES ("Differentiating
-video angles"): filterpy runs about 30k samples/s, this about 1M samples/s, and both
-agree to round-off (``tests/test_smooth_kalman.py`` checks it against filterpy).
+steps (several angles, several candidate process noises). The filter's loop over the
+frames is compiled (:mod:`.kalman_kernel`); the backward passes are Python loops over
+the ``n`` time steps, each step a handful of numpy operations on ``(B, k, k)`` arrays,
+so their cost hardly grows with ``B``. NOTES ("Differentiating video angles"): filterpy
+runs about 30k samples/s; both agree to round-off (``tests/test_smooth_kalman.py``
+checks it against filterpy).
 
 State of one series: ``[angle, rate, acceleration]`` (``k = 3``, constant
 acceleration, white jerk) or ``[angle, rate, acceleration, jerk]`` (``k = 4``,
@@ -208,7 +209,7 @@ def batch_kalman_filter(
     nu_hist = np.zeros((n, B))
     if store:
         xps = np.empty((n, B, k))
-        Pps = np.empty((n, B, kk))
+        Pps = np.empty((n, B, k, k))
     first = _rest_steps(steps, has_noise, x, P)
     if first:
         # a leading rest: only the first state is uncertain and nothing moves it, so the
@@ -225,7 +226,7 @@ def batch_kalman_filter(
             xps[:first] = 0.0
             xps[:first, :, 0] = x_pred
             Pps[:first] = 0.0
-            Pps[:first, :, 0] = p_pred
+            Pps[:first, :, 0, 0] = p_pred
         last = first - 1
         p_end = 1.0 / (1.0 / p_pred[last] + v[last] / r2)
         x = np.zeros_like(x)
@@ -233,20 +234,23 @@ def batch_kalman_filter(
         P = np.zeros_like(P)
         P[:, 0] = p_end
     P3 = np.ascontiguousarray(P.reshape(B, k, k))
-    c = np.ascontiguousarray  # one layout for every argument: one compiled signature
-    x = c(x, dtype=float)  # updated in place
-    filter_steps(int(first), c(steps.F, dtype=float), c(noise.reshape(n, B, k, k)),
+    # every input a fresh, writable C-ordered copy (one compiled signature); x, P3 and the
+    # histories are written in place
+    x = np.array(x, dtype=float, order="C")
+    filter_steps(int(first), np.array(steps.F, dtype=float, order="C"),
+                 np.array(noise.reshape(n, B, k, k), order="C"),
                  np.array(moves, dtype=bool), np.array(has_noise, dtype=bool),
-                 c(valid.T), c(zz_t, dtype=float), np.array(r2, dtype=float),
+                 np.array(valid.T, dtype=bool, order="C"),
+                 np.array(zz_t, dtype=float, order="C"), np.array(r2, dtype=float),
                  x, P3, S_hist, nu_hist, bool(store),
                  xps if store else np.empty((1, 1, 1)),
-                 c(Pps.reshape(n, B, k, k)) if store else np.empty((1, 1, 1, 1)))
+                 Pps if store else np.empty((1, 1, 1, 1)))
     P = P3.reshape(B, kk)
     end = {"x_end": x, "P_end": P.reshape(B, k, k)}
     if not store:
         return FilterResult(S_hist, nu_hist, **end)
-    gains = Pps[:, :, :k] * (valid_t / S_hist)[:, :, None]  # zero at gaps
-    return FilterResult(S_hist, nu_hist, xps, Pps.reshape(n, B, k, k), gains, **end)
+    gains = Pps[:, :, 0, :] * (valid_t / S_hist)[:, :, None]  # zero at gaps
+    return FilterResult(S_hist, nu_hist, xps, Pps, gains, **end)
 
 
 @dataclass(frozen=True)

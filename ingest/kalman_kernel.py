@@ -4,8 +4,10 @@
 in numpy each frame costs a dozen small array operations whose overhead, on a 2 s log at
 1000 fps, was about half of a reconstruction's time. Here the same predict-then-update
 steps run as one compiled loop over frames and series (a few k × k products per step,
-k = 3 or 4). The compiled code is cached beside this file; numba rebuilds it when this file
-changes (it calls nothing from other files).
+k = 3 or 4). The compiled code is cached beside this file (or in numba's user cache); numba
+rebuilds it when this file changes (it calls nothing from other files). Where no cache folder
+can be written (a read-only installation and home), it is compiled anew in each process
+(about 2 s; set ``NUMBA_CACHE_DIR`` to a writable folder to keep it).
 """
 
 from __future__ import annotations
@@ -16,8 +18,7 @@ import numpy as np
 __all__ = ["filter_steps"]
 
 
-@numba.njit(cache=True, error_model="numpy")
-def filter_steps(first, F, noise, moves, has_noise, valid, z, r2, x, P, S_hist, nu_hist,
+def _filter_steps(first, F, noise, moves, has_noise, valid, z, r2, x, P, S_hist, nu_hist,
                  store, xps, Pps):  # noqa: ANN001, ANN201 - numba
     """Steps ``first`` to ``n - 1`` of the filter, in place.
 
@@ -79,3 +80,15 @@ def filter_steps(first, F, noise, moves, has_noise, valid, z, r2, x, P, S_hist, 
                     for c in range(k):
                         P[b, a, c] -= gain * row[c]
                 nu_hist[i, b] = nu
+
+
+def _compiled(function):  # noqa: ANN001, ANN202 - numba
+    """``function`` compiled with an on-disk cache, or without one where numba finds no
+    writable cache folder."""
+    try:
+        return numba.njit(cache=True, error_model="numpy")(function)
+    except RuntimeError:  # "cannot cache function ...: no locator available"
+        return numba.njit(error_model="numpy")(function)
+
+
+filter_steps = _compiled(_filter_steps)

@@ -447,15 +447,7 @@ def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene
     fit it near the release worse than their noise allows (:func:`.scene_doubt`; the
     model's release is still used)."""
     settings = options.release_model
-    noise = est.attrs.get("noise", {})
-    if not all(a in noise for a in ("theta", "psi")):  # no check: the full smoothing
-        full = smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
-                      settings=smoother_settings(options))
-        missing = " and ".join(a for a in ("theta", "psi") if a not in noise)
-        full.attrs["notes"] = [*full.attrs.get("notes", []),
-                               f"the release was not checked against the engine's equations "
-                               f"({missing} not tracked); it comes from the jump search alone"]
-        return full, None
+    noise = est.attrs["noise"]  # theta and psi are tracked (reconstruct checks)
     angles = {}
     for a in ("theta", "psi"):
         z = log[a].to_numpy(dtype=float).copy()
@@ -594,8 +586,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     log = _log_frame(path_or_log, fps, columns, points, min_likelihood)
     source = str(log.attrs.get("source", "log"))
     given: dict[str, float | None] = {}
+    t_log, angles_log = validated_log(log, smoother_settings(options).min_frames)
     if events is not None:
-        t_log, _ = validated_log(log, smoother_settings(options).min_frames)
         given = checked_events(events, t_log, source)
     smooth_events = {k: v for k, v in given.items() if k in ("trigger", "release")}
     track_end = None
@@ -606,6 +598,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
             smooth_events["release"] = track_end[0]
     check = (track_end is None and "release" not in given and scene.projectile != "none"
              and options.release_model is not None)
+    untracked = [a for a, z in zip(ANGLES, angles_log, strict=True)
+                 if a != "phi" and not np.isfinite(z).any()]
+    unchecked = check and bool(untracked)
+    check = check and not untracked
     settings = smoother_settings(options)
     est = smooth(log, model=options.model, q=q, r=r, events=smooth_events or None,
                  settings=checking_settings(settings) if check else settings)
@@ -619,6 +615,11 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     elif check:
         est, release_sd = _release_by_the_equations(log, est, scene, options, smooth_events,
                                                     q, r)
+    elif unchecked:
+        est.attrs["notes"] = [*est.attrs.get("notes", []),
+                              "the release was not checked against the engine's equations "
+                              f"({' and '.join(untracked)} not tracked); it comes from the "
+                              "jump search alone"]
     result = loads_from_smoothed(est, scene, events=given, options=options,
                                  release_sd=release_sd)
     for key in ("source", "format", "repairs", "columns"):
