@@ -19,6 +19,7 @@ Lift-off needs forces and is found elsewhere. All times in the log's own time (s
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -211,20 +212,37 @@ def trigger_estimate(
     frames = int(np.ceil((hi_t - lo_t) / dt))
     stride = max(1, frames // settings.coarse_candidates)
     coarse = np.linspace(lo_t, hi_t, frames // stride + 1)
-    ll = loglik(coarse)
-    keep = np.flatnonzero(ll >= ll.max() - settings.profile_drop)
-    a_t = coarse[max(keep[0] - 1, 0)]
-    b_t = coarse[min(keep[-1] + 1, coarse.size - 1)]
-    step = max(dt / settings.subframe_steps, (b_t - a_t) / settings.max_fine_candidates)
-    fine = np.arange(a_t, b_t + 0.5 * step, step)
+    mean, spread, _ = refined_profile(loglik, coarse, loglik(coarse), dt,
+                                      settings.profile_drop, settings.subframe_steps,
+                                      settings.max_fine_candidates)
+    if mean - t[first_valid] < (settings.min_rest_frames - 0.5) * dt:
+        return None
+    return mean, spread
+
+
+def refined_profile(loglik: Callable[[np.ndarray], np.ndarray], coarse: np.ndarray,
+                    coarse_loglik: np.ndarray, dt: float, drop: float, subframe_steps: int,
+                    max_fine: int) -> tuple[float, float, float]:
+    """Time (s) of an event from its profile log-likelihood, its sd (s), and the largest
+    log-likelihood on the fine grid.
+
+    ``loglik`` maps candidate times (s) to log-likelihoods, already evaluated on the
+    ``coarse`` grid (``coarse_loglik``); every candidate within ``drop`` of the best, and
+    one coarse step either side, is evaluated again every ``dt / subframe_steps`` s
+    (coarser if that takes more than ``max_fine`` candidates). The estimate is the mean
+    of ``exp(loglik)`` over that grid (a flat prior), the sd its spread with the grid's
+    own ``step² / 12``.
+    """
+    keep = np.flatnonzero(coarse_loglik >= coarse_loglik.max() - drop)
+    lo = coarse[max(keep[0] - 1, 0)]
+    hi = coarse[min(keep[-1] + 1, coarse.size - 1)]
+    step = max(dt / subframe_steps, (hi - lo) / max_fine)
+    fine = np.arange(lo, hi + 0.5 * step, step)
     ll = loglik(fine)
     w = np.exp(ll - ll.max())
     w /= w.sum()
     mean = float(w @ fine)
-    spread = float(np.sqrt(w @ (fine - mean) ** 2 + step**2 / 12.0))
-    if mean - t[first_valid] < (settings.min_rest_frames - 0.5) * dt:
-        return None
-    return mean, spread
+    return mean, float(np.sqrt(w @ (fine - mean) ** 2 + step**2 / 12.0)), float(ll.max())
 
 
 def detect_trigger(

@@ -52,6 +52,8 @@ from trebuchet.errors import TrebuchetInputError
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.scene import Scene
 
+from .events import refined_profile
+
 __all__ = ["ReleaseFit", "ModelRelease", "phase_accelerations", "phase_change_profile",
            "release_jump_chi2", "release_from_model", "release_choice", "scene_doubt"]
 
@@ -251,15 +253,6 @@ def release_jump_chi2(t: np.ndarray, angles: tuple[np.ndarray, ...], noise_sd: t
     return chi2, dof
 
 
-def _profile_mean_sd(grid: np.ndarray, loglik: np.ndarray, step: float) -> tuple[float, float]:
-    """Mean and sd (s) of a flat-prior posterior ``exp(loglik)`` on the grid (s, spacing
-    ``step`` s)."""
-    w = np.exp(loglik - loglik.max())
-    w /= w.sum()
-    mean = float(w @ grid)
-    return mean, float(np.sqrt(w @ (grid - mean) ** 2 + step**2 / 12.0))
-
-
 def _state(est: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """``t`` (s), the angles (rad), rates (rad/s), accelerations (rad/s²) and the
     accelerations' sd of a smoother output, as float arrays."""
@@ -349,21 +342,22 @@ def release_from_model(log_angles: Mapping[str, np.ndarray], est: Mapping[str, n
     best = float(np.min(chi2))
     chi2_dof = best / max(dof, 1)
     scale = max(1.0, chi2_dof)  # model error beyond the noise widens the profile
-    keep = np.flatnonzero(-0.5 * (chi2 - best) / scale >= -settings.profile_drop)
-    lo = grid[max(keep[0] - 1, 0)]
-    hi = grid[min(keep[-1] + 1, grid.size - 1)]
-    step = max(dt / settings.subframe_steps, (hi - lo) / settings.max_fine_candidates)
-    fine = np.arange(lo, hi + 0.5 * step, step)
-    chi2_f, _ = release_jump_chi2(tw, z, sd, before, after, fine, offset)
-    when, spread = _profile_mean_sd(fine, -0.5 * chi2_f / scale, step)
+
+    def loglik(times: np.ndarray) -> np.ndarray:
+        return -0.5 * release_jump_chi2(tw, z, sd, before, after, times, offset)[0] / scale
+
+    when, spread, best_fine = refined_profile(loglik, grid, -0.5 * chi2 / scale, dt,
+                                              settings.profile_drop, settings.subframe_steps,
+                                              settings.max_fine_candidates)
+    best = min(best, -2.0 * scale * best_fine)
     # against no release in the window: all phase II, or all phase III
     ends, _ = release_jump_chi2(tw, z, sd, before, after,
                                 np.array([tw[-1], tw[0] - dt]), offset)
-    log_ratio = max(log_ratio, float(0.5 * (np.min(ends) - min(best, np.min(chi2_f))) / scale))
+    log_ratio = max(log_ratio, float(0.5 * (np.min(ends) - best) / scale))
     if log_ratio < settings.min_log_ratio:
         return _none("the angles show no jump of the model's size in their acceleration",
                      misfit, log_ratio)
-    chance = float(chi2_distribution.sf(min(best, float(np.min(chi2_f))), max(dof, 1)))
+    chance = float(chi2_distribution.sf(best, max(dof, 1)))
     return ModelRelease(when, spread, misfit, chi2_dof, log_ratio,
                         "the engine's equations (phase II before, phase III after)", chance)
 
