@@ -200,7 +200,7 @@ def batch_kalman_filter(
     noise = lam_steps[:, :, None] * Q0[:, None, :] + kick_c.T[:, :, None] * G[:, None, :]
     has_noise = np.any(noise != 0.0, axis=(1, 2)).tolist()
     moves = (~np.all(steps.F == np.eye(k), axis=(1, 2))).tolist()
-    zz_t = np.ascontiguousarray(zz.T)
+    zz_t = np.array(zz.T, order="C")
     valid_t = np.ascontiguousarray(valid.T).astype(float)
 
     x = np.array(x0, dtype=float)
@@ -241,12 +241,11 @@ def batch_kalman_filter(
                  np.array(noise.reshape(n, B, k, k), order="C"),
                  np.array(moves, dtype=bool), np.array(has_noise, dtype=bool),
                  np.array(valid.T, dtype=bool, order="C"),
-                 np.array(zz_t, dtype=float, order="C"), np.array(r2, dtype=float),
+                 zz_t, np.array(r2, dtype=float),
                  x, P3, S_hist, nu_hist, bool(store),
                  xps if store else np.empty((1, 1, 1)),
                  Pps if store else np.empty((1, 1, 1, 1)))
-    P = P3.reshape(B, kk)
-    end = {"x_end": x, "P_end": P.reshape(B, k, k)}
+    end = {"x_end": x, "P_end": P3}
     if not store:
         return FilterResult(S_hist, nu_hist, **end)
     gains = Pps[:, :, 0, :] * (valid_t / S_hist)[:, :, None]  # zero at gaps

@@ -86,11 +86,13 @@ def check_frame_rate(path: str | Path, t: np.ndarray, label: str, fps: float | N
             f"{path}, column '{label}': the frames lie {1.0 / rate:.3g} s apart ({rate:.3g} "
             f"fps), which no film of a shot has; if the times are in {hint}, say so in the "
             f"header, e.g. '{label.split('(')[0].split('[')[0].strip() or 't'} ({hint})'")
+    if fps is None:
+        return
     # times rounded coarser than the frames (60 fps to 0.01 s: steps 0.01, 0.02) move the
     # median step; the mean of the steps near it does not
     near = steps[np.abs(steps * rate - 1.0) <= 0.5]
     mean_rate = 1.0 / float(np.mean(near))
-    if fps is not None and min(abs(rate / fps - 1.0), abs(mean_rate / fps - 1.0)) > 0.05:
+    if min(abs(rate / fps - 1.0), abs(mean_rate / fps - 1.0)) > 0.05:
         raise TrebuchetInputError(
             f"{path}: fps={fps:g} disagrees with the log's times in column '{label}', whose "
             f"frames come {rate:.4g} per s; correct fps or leave it out")
@@ -169,8 +171,7 @@ def snap_rounded_times(
         coarse = (t, None, (
             f"times are rounded to {step * 1e3:g} ms, too coarse for the frame period "
             f"of about {float(np.mean(positive)) * 1e3:.3g} ms; they are used as written: "
-            "pass fps= to "
-            "recover exact frame times"))
+            "pass fps= to recover exact frame times"))
         if period <= 2 * step * (1 + 1e-9):
             return coarse
         for _ in range(3):

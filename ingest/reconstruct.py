@@ -431,8 +431,8 @@ def checking_settings(settings: SmoothSettings) -> SmoothSettings:
                                retune_after_release=False)
 
 
-def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene,
-                              options: ReconstructOptions,
+def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFrame,
+                              scene: Scene, options: ReconstructOptions,
                               smooth_events: dict[str, float | None],
                               q: float | Mapping[str, float] | None,
                               r: float | Mapping[str, float] | None
@@ -445,12 +445,13 @@ def _release_by_the_equations(log: pd.DataFrame, est: pd.DataFrame, scene: Scene
     both times; else it is smoothed again with the smoother's own release given.
     A model that fits neither phase warns (ModelValidityWarning), and so do angles that
     fit it near the release worse than their noise allows (:func:`.scene_doubt`; the
-    model's release is still used)."""
+    model's release is still used). ``angles_log`` (3, n): the log's θ, ψ, φ (rad) as
+    :func:`~.smooth.validated_log` gave them."""
     settings = options.release_model
     noise = est.attrs["noise"]  # theta and psi are tracked (reconstruct checks)
     angles = {}
     for a in ("theta", "psi"):
-        z = log[a].to_numpy(dtype=float).copy()
+        z = angles_log[ANGLES.index(a)].copy()
         ok = np.isfinite(z)
         z[ok] = np.unwrap(z[ok])  # as the smoother does
         angles[a] = z
@@ -613,8 +614,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
             if leaves is not None and leaves["t"] == track_end[0] else "end of the sling track")
         release_sd = track_end[1]
     elif check:
-        est, release_sd = _release_by_the_equations(log, est, scene, options, smooth_events,
-                                                    q, r)
+        est, release_sd = _release_by_the_equations(log, angles_log, est, scene, options,
+                                                    smooth_events, q, r)
     elif unchecked:
         est.attrs["notes"] = [*est.attrs.get("notes", []),
                               "the release was not checked against the engine's equations "
