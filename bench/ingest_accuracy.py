@@ -136,6 +136,12 @@ def speed_2s_1000fps(repeats: int = 7, options: ReconstructOptions | None = None
     rest = 0.3
     log, _ = simulated_log(scene, 1000, 0.5, rest=rest, after_release=2.0 - rest - 0.997,
                            seed=0)
+    return best_reconstruct_time(log, scene, repeats, options)
+
+
+def best_reconstruct_time(log: pd.DataFrame, scene: Scene, repeats: int = 7,
+                          options: ReconstructOptions | None = None) -> float:
+    """Best wall time (s) of ``repeats`` calls of ``reconstruct(log, scene)``."""
     best = np.inf
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
