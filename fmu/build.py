@@ -15,9 +15,8 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+from trebuchet.fmu.interface import UNITS, VARIABLES
 from trebuchet.output import atomic_path
-
-from .interface import UNITS, VARIABLES
 
 __all__ = ["build_fmu", "complete_model_description", "SLAVE_SCRIPT", "MODEL_NAME"]
 

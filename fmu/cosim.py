@@ -4,7 +4,7 @@ The FMU's slave holds a :class:`Run` and calls these pure functions; nothing her
 the model. A run is the :func:`~trebuchet.model.simulate.integrate` trajectory of the scene
 (dense output, events located to solver accuracy), so lift-off and release inside a
 communication step are exact, and the outputs at any time are
-:func:`~trebuchet.model.forces.loads` of :meth:`Trajectory.angles` at that time: the same rows
+:func:`~trebuchet.model.loads.loads` of :meth:`Trajectory.angles` at that time: the same rows
 as ``simulate(scene, t_eval=..., after_release=after_release_for(t_stop))``.
 
 A rising release command at communication time ``t_c`` before the trajectory's release
@@ -20,11 +20,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from trebuchet.model.forces import loads
+from trebuchet.fmu.interface import OUTPUTS
+from trebuchet.model.loads import loads
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, Trajectory, integrate
-
-from .interface import OUTPUTS
 
 __all__ = ["Run", "Window", "after_release_for", "start_run", "command_release", "covering",
            "outputs", "window", "lookup", "OUTPUT_NAMES", "WINDOW_STEPS", "MATCH_ULPS"]

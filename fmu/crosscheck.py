@@ -17,14 +17,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet import __version__
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.fmu.build import MODEL_NAME
+from trebuchet.fmu.cosim import OUTPUT_NAMES, after_release_for
+from trebuchet.fmu.interface import PARAMETERS, scene_from_parameters
 from trebuchet.model.simulate import simulate
 from trebuchet.output import atomic_dir
-
-from .build import MODEL_NAME
-from .cosim import OUTPUT_NAMES, after_release_for
-from .interface import PARAMETERS, scene_from_parameters
+from trebuchet.version import __version__
 
 __all__ = ["reference", "write_crosscheck", "START_TIME", "STOP_TIME", "STEP_SIZE",
            "COMMAND_TIME", "REL_TOL"]

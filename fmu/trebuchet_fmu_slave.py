@@ -26,10 +26,10 @@ from pythonfmu import (
 )
 from pythonfmu.enums import Fmi2Status
 
-from trebuchet import __version__
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.fmu import cosim
 from trebuchet.fmu.interface import VARIABLES, Variable, scene_from_parameters
+from trebuchet.version import __version__
 
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
 _CAUSALITY = {"parameter": Fmi2Causality.parameter, "input": Fmi2Causality.input,

@@ -1,7 +1,7 @@
 """Internal forces from a video log: read, smooth, apply the model's force functions.
 
-``reconstruct(log, scene)`` = :func:`~trebuchet.ingest.read_log.read_log` +
-:func:`~trebuchet.ingest.smooth.smooth` + :func:`trebuchet.model.forces.loads` on the
+``reconstruct(log, scene)`` = :func:`~trebuchet.ingest.logs.read_log.read_log` +
+:func:`~trebuchet.ingest.smoothing.smooth.smooth` + :func:`trebuchet.model.loads.loads` on the
 smoothed state, with
 
 - **events** in the log's time: the trigger and release from the smoother, lift-off where
@@ -40,17 +40,28 @@ import pandas as pd
 from scipy.special import ndtr
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, check_choice
+from trebuchet.ingest.advisory import resolution_advisories
+from trebuchet.ingest.events.lift_off import lift_off_sd, lift_off_time
+from trebuchet.ingest.events.release_model import (
+    ReleaseFit,
+    release_choice,
+    release_from_model,
+    scene_doubt,
+)
+from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
+from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
+from trebuchet.ingest.smoothing.smooth import (
+    ANGLES,
+    SUFFIXES,
+    SmoothSettings,
+    checked_events,
+    smooth,
+    validated_log,
+)
+from trebuchet.ingest.uncertainty import propagate
 from trebuchet.model import dynamics as dyn
-from trebuchet.model.forces import loads
+from trebuchet.model.loads import loads
 from trebuchet.model.scene import Scene, as_scene
-
-from .advisory import resolution_advisories
-from .lift_off import lift_off_sd, lift_off_time
-from .noise_tuning import NoiseSearch
-from .release_model import ReleaseFit, release_choice, release_from_model, scene_doubt
-from .scene_fit import geometry_findings, warn_findings
-from .smooth import ANGLES, SUFFIXES, SmoothSettings, checked_events, smooth, validated_log
-from .uncertainty import propagate
 
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
            "sling_track_end", "PRESETS", "smoother_settings", "propagation_order",
@@ -85,7 +96,7 @@ class ReconstructOptions:
     ``form``: "projected" or "direct" (see the module doc). ``trough``: "constraint" or
     "measured" φ in phase I. ``event_sd_frames``: sd of a detected release time, in frames,
     and of a detected trigger when the smoother does not give one (it gives the spread of
-    the trigger's likelihood profile, :func:`~trebuchet.ingest.events.trigger_estimate`);
+    the trigger's likelihood profile, :func:`~trebuchet.ingest.events.detection.trigger_estimate`);
     a given event is exact. ``release_at_track_end``: when the sling's track
     ends while the others go on, the release is put between its last frame and the next
     (sd: the gap / √12) and handed to the smoother, instead of the smoother's search for
@@ -93,11 +104,11 @@ class ReconstructOptions:
     on simulated logs, ``bench/ingest_accuracy.py``). ``resolution_fraction``: the advisory
     speaks where a load's sd exceeds this fraction of its peak. ``model``: the smoother's
     model ("ca", "cj", or per angle the likelier of both, "select", or their mixture,
-    "average": :mod:`~trebuchet.ingest.model_choice`); ``smooth``: its settings
+    "average": :mod:`~trebuchet.ingest.smoothing.model_choice`); ``smooth``: its settings
     (default: the preset's). Measured on ``bench/ingest_accuracy.py`` (six seeds,
     projected form; inside / too narrow / too wide of 85–99 %, mean |F_R| RMS error):
     the default 157 / 0 / 3, 1.62 % (seeds 6–11: 158 / 0 / 2, 12–17: 160 / 0 / 0;
-    :class:`~trebuchet.ingest.smooth.SmoothSettings` gives the steps to it: bands of
+    :class:`~trebuchet.ingest.smoothing.smooth.SmoothSettings` gives the steps to it: bands of
     the measurement noise's error plus the process noise's share as far as the data
     show it, and two terms of the bias; before them 151 / 1 / 8, 150 / 0 / 10 and
     154 / 0 / 6); with the default smoother settings before that (local noise
@@ -319,7 +330,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                         events: Mapping[str, float | None] | None = None,
                         options: ReconstructOptions | None = None,
                         release_sd: float | None = None) -> pd.DataFrame:
-    """Every load and its sd from the output of :func:`~trebuchet.ingest.smooth.smooth`.
+    """Every load and its sd from the output of :func:`~trebuchet.ingest.smoothing.smooth.smooth`.
 
     ``events``: given event times (s, log time; None = no such event) overriding those in
     ``est.attrs["events"]`` and the lift-off detection; ``release_sd`` (s): sd of the
@@ -520,7 +531,7 @@ def _log_frame(path_or_log, fps, columns, points, min_likelihood) -> pd.DataFram
             log.insert(0, "t", log["frame"].to_numpy(dtype=float) / float(fps))
         return log
     if isinstance(path_or_log, str | Path):
-        from .read_log import read_log
+        from trebuchet.ingest.logs.read_log import read_log
 
         return read_log(path_or_log, fps=fps, columns=columns, points=points,
                         min_likelihood=min_likelihood)
@@ -541,7 +552,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
 
     Parameters
     ----------
-    path_or_log : a log file (any format :func:`~trebuchet.ingest.read_log.read_log`
+    path_or_log : a log file (any format :func:`~trebuchet.ingest.logs.read_log.read_log`
         reads) or a DataFrame with ``t`` (s) and ``theta``, ``psi``, ``phi`` (rad).
     scene : the engine filmed (a :class:`~trebuchet.model.scene.Scene` or a scene file).
     fps, columns, points, min_likelihood : as for ``read_log``.
@@ -559,7 +570,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     -------
     DataFrame with the log's rows: ``t`` (s, the log's time), ``t_shot`` (s after the
     detected trigger), ``phase`` (0 at rest, 1 trough, 2 sling, 3 released), the angles,
-    rates and accelerations, every column of :func:`trebuchet.model.forces.loads`, and
+    rates and accelerations, every column of :func:`trebuchet.model.loads.loads`, and
     ``X_sd`` for each of them. ``attrs``: ``events`` (trigger, lift_off, release; log
     time, s, or None), ``event_sd`` (s), ``event_sources``, ``noise`` (per angle: ``q``,
     ``r_sd`` rad, …), ``form``, ``trough``, ``fps``, ``advisories`` (list of dicts:

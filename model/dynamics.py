@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .scene import Engine
+from trebuchet.model.scene import Engine
 
 __all__ = [
     "trough_sling_angle",

@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from . import dynamics as dyn
-from .scene import Engine
+from trebuchet.model import dynamics as dyn
+from trebuchet.model.scene import Engine
 
 __all__ = [
     "LIFT_OFF", "SLING_UPRIGHT", "GROUND", "RELEASE_TIME", "RELEASE_ANGLE", "DIRECTION",

@@ -34,10 +34,10 @@ import numpy as np
 from numba.extending import register_jitable
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from . import dynamics as dyn
-from . import phase_events as pev
-from .integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
-from .scene import Engine
+from trebuchet.model import dynamics as dyn
+from trebuchet.model import phase_events as pev
+from trebuchet.model.integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
+from trebuchet.model.scene import Engine
 
 __all__ = ["JitEngine", "jit_engine", "solve_phase", "KernelSolution", "STATE_SIZE",
            "discard_stale_cache"]
@@ -458,20 +458,6 @@ def _say_compiling() -> None:
         _cold = False
         print("trebuchet: compiling the simulator (once per installation, about 15 s)...",
               file=sys.stderr, flush=True)
-
-
-def warm_up() -> None:
-    """Compile (or load from the cache) everything a simulation runs: a shot of the paper's
-    engine with its outputs. ``make install`` calls it, so that the first simulation of a
-    user does not wait for the compiler."""
-    from .paper import horsdal_scene_path
-    from .scene import Scene
-    from .simulate import integrate, simulate
-
-    scene = Scene.from_toml(horsdal_scene_path())
-    simulate(scene)
-    for p in integrate(scene).phases:
-        p.sol(np.array([p.t0, p.t1]))
 
 
 # ---------------------------------------------------------------------------------------------

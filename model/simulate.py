@@ -4,7 +4,7 @@
 of :mod:`trebuchet.model.dynamics` phase by phase, locates lift-off (the
 trough's normal force reaches zero) and release (a time, or the projectile's
 velocity climbing at a given angle) as events to solver accuracy, and
-computes every load with :func:`trebuchet.model.forces.loads` on the
+computes every load with :func:`trebuchet.model.loads.loads` on the
 requested output times. The result is a DataFrame whose ``attrs`` carry the
 events, the flight in vacuum and the solver's diagnostics.
 """
@@ -22,13 +22,12 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
-
-from . import dynamics as dyn
-from . import phase_events as pev
-from .flight import flight_summary
-from .forces import load_columns
-from .frames import frame
-from .scene import Scene
+from trebuchet.model import dynamics as dyn
+from trebuchet.model import phase_events as pev
+from trebuchet.model.flight import flight_summary
+from trebuchet.model.frames import frame
+from trebuchet.model.loads import load_columns
+from trebuchet.model.scene import Scene
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
@@ -179,13 +178,13 @@ def _solve(scene: Scene, kind: int, t0: float, t1: float, y0: Sequence[float],
     if first_step is not None:
         first_step = min(first_step, t1 - t0)
     if method == "DOP853":
-        from .shot_kernel import solve_phase
+        from trebuchet.model.shot_kernel import solve_phase
 
         return solve_phase(kind, scene.engine, scene.g, scene.start.H, t0, t1,
                            np.asarray(y0, dtype=float), rtol, first_step, tuple(events))
     ev = [_event(scene, k, par) for k, par in events]
     if method == "python-DOP853":
-        from .integrator import solve
+        from trebuchet.model.integrator import solve
 
         return solve(_rhs(scene, kind), (t0, t1), y0, rtol=rtol, atol=rtol * 1e-2,
                      dense_output=True, events=ev, first_step=first_step,
@@ -394,8 +393,8 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
 
     Returns
     -------
-    DataFrame with the columns of CONTRACT.md (and the extras of
-    :func:`trebuchet.model.forces.loads`). ``attrs["events"]`` holds ``lift_off``,
+    DataFrame with the columns of docs/interface.md (and the extras of
+    :func:`trebuchet.model.loads.loads`). ``attrs["events"]`` holds ``lift_off``,
     ``release`` and ``end`` (s; lift-off and release only where the scene has them);
     ``attrs["flight"]`` the flight (vacuum or drag, None for a dry fire);
     ``attrs["diagnostics"]`` the solver, tolerance, number of evaluations and energy drift.

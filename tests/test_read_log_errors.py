@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
-from trebuchet.ingest.read_log import MIN_FRAMES, read_log
+from trebuchet.ingest.logs.read_log import MIN_FRAMES, read_log
 
 LOGS = Path(__file__).parent / "fixtures" / "logs"
 HEADER = "t (s),theta (deg),psi (deg),phi (deg)"

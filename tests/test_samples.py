@@ -19,7 +19,7 @@ import pytest
 
 from tests.conftest import BACKYARD
 from trebuchet.errors import TrebuchetDataWarning
-from trebuchet.ingest.read_log import read_log
+from trebuchet.ingest.logs.read_log import read_log
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
 
