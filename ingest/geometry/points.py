@@ -17,8 +17,6 @@ any length unit, the same for x and y (pixels, metres). Files with y pointing do
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
@@ -54,14 +52,14 @@ def paper_branch(angle: str, values: np.ndarray) -> np.ndarray:
 
 
 def resolve_points(
-    path: str | Path, tracks: list[Candidate], points: dict[str, str] | None
+    tracks: list[Candidate], points: dict[str, str] | None
 ) -> dict[str, Candidate]:
     """Map engine parts to the file's points (``points=`` then names equal to the part).
 
     Error naming the missing part when a point an angle needs is not found.
     """
-    mapping = check_mapping(path, points, ROLES, "points")
-    chosen = resolve(path, tracks, mapping, ROLES, "points", "point")
+    mapping = check_mapping(points, ROLES, "points")
+    chosen = resolve(tracks, mapping, ROLES, "points", "point")
     for angle, pairs in NEEDS.items():
         if any(a in chosen and b in chosen for a, b in pairs):
             continue
@@ -69,7 +67,7 @@ def resolve_points(
         missing = [r for r in (a, b) if r not in chosen]
         found = ", ".join(repr(c.label) for c in tracks) or "none"
         raise TrebuchetInputError(
-            f"{path}: the angle {angle} needs the points {a} and {b}; no point for "
+            f"the angle {angle} needs the points {a} and {b}; no point for "
             f"{' and '.join(missing)} (points found: {found}); name it with "
             f"points={{{missing[0]!r}: '<point in the file>'}}"
         )

@@ -111,28 +111,40 @@ def read_log(
         On a user's mistake; the message names the file, the row (1-based line number in
         the file) or column, and what is wrong.
     """
-    fps = check_fps(path, fps)
-    mapping = check_mapping(path, columns, ANGLES, "columns")
-    check_mapping(path, points, ("pivot", "spigot", "hinge", "counterweight", "projectile"),
+    try:
+        log, repairs = _read(path, fps, columns, points, min_likelihood)
+    except TrebuchetInputError as exc:  # the file's name, once, in front of the place
+        raise exc.in_file(path) from None
+    return _frame(path, log, repairs)
+
+
+def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None,
+          points: Mapping[str, str] | None, min_likelihood: float
+          ) -> tuple[ParsedLog, list[str]]:
+    """:func:`read_log` up to the result table: the log and its repair notes. Errors name the
+    place in the file but not the file."""
+    fps = check_fps(fps)
+    mapping = check_mapping(columns, ANGLES, "columns")
+    check_mapping(points, ("pivot", "spigot", "hinge", "counterweight", "projectile"),
                   "points")
     if not (isinstance(min_likelihood, int | float) and 0 <= min_likelihood <= 1):
-        raise TrebuchetInputError(f"{path}: min_likelihood={min_likelihood!r} must be in [0, 1]")
+        raise TrebuchetInputError(f"min_likelihood={min_likelihood!r} must be in [0, 1]")
     numbered = split_lines(read_text(path))
-    source = _read_source(path, numbered, fps, float(min_likelihood))
-    check_time(path, source.t, source.rows, source.time_label)
-    check_frame_rate(path, source.t, source.time_label, fps)
-    _snap_decimal_times(path, source, fps)
-    log = _choose_angles(path, source, mapping, points)
+    source = _read_source(numbered, fps, float(min_likelihood))
+    check_time(source.t, source.rows, source.time_label)
+    check_frame_rate(source.t, source.time_label, fps)
+    _snap_decimal_times(source, fps)
+    log = _choose_angles(source, mapping, points)
     for angle in ANGLES:
         values = log.angles[angle]
         if np.isnan(values).all():
-            raise TrebuchetInputError(
-                f"{path}, column '{log.labels[angle]}': no value at all (for {angle})"
+            raise TrebuchetInputError.at(
+                f"column '{log.labels[angle]}'", f"no value at all (for {angle})"
             )
         largest = float(np.nanmax(np.abs(values)))
         if largest > MAX_ANGLE:
-            raise TrebuchetInputError(
-                f"{path}, column '{log.labels[angle]}': {angle} reaches {largest:.4g} rad, more "
+            raise TrebuchetInputError.at(
+                f"column '{log.labels[angle]}'", f"{angle} reaches {largest:.4g} rad, more "
                 "than two turns from zero, which no shot turns; if the column holds degrees, "
                 f"say so in its header, e.g. '{angle} (deg)'"
             )
@@ -148,27 +160,27 @@ def read_log(
     complete = int(np.isfinite(np.column_stack([log.angles[a] for a in ANGLES])).all(1).sum())
     if complete < MIN_FRAMES:
         raise TrebuchetInputError(
-            f"{path}: only {complete} frames with all three angles; at least {MIN_FRAMES} "
+            f"only {complete} frames with all three angles; at least {MIN_FRAMES} "
             f"are needed"
         )
     repairs += unwrap_angles(log)
-    return _frame(path, log, repairs)
+    return log, repairs
 
 
 def _read_source(
-    path: str | Path, numbered: list[tuple[int, str]], fps: float | None, min_likelihood: float
+    numbered: list[tuple[int, str]], fps: float | None, min_likelihood: float
 ) -> LogSource:
     """Recognise the format from the content and read the file."""
     if looks_like_deeplabcut(numbered):
-        return read_deeplabcut(path, numbered, fps, min_likelihood)
+        return read_deeplabcut(numbered, fps, min_likelihood)
     if looks_like_tracker(numbered):
-        return read_tracker(path, numbered, fps)
+        return read_tracker(numbered, fps)
     if looks_like_kinovea(numbered):
-        return read_kinovea(path, numbered, fps)
-    return read_generic(path, numbered, fps)
+        return read_kinovea(numbered, fps)
+    return read_generic(numbered, fps)
 
 
-def _snap_decimal_times(path: str | Path, source: LogSource, fps: float | None) -> None:
+def _snap_decimal_times(source: LogSource, fps: float | None) -> None:
     """Times written with too few decimals (Tracker's 4) go back on the frame grid of
     ``fps`` (1/s) if given, else on a fitted one, with a repair note; Kinovea's whole
     milliseconds are handled by its reader."""
@@ -177,14 +189,13 @@ def _snap_decimal_times(path: str | Path, source: LogSource, fps: float | None) 
     step = decimal_rounding(source.t)
     if step is None:
         return
-    t, _, note = snap_rounded_times(path, source.t, source.rows, fps, step, anchored=False)
+    t, _, note = snap_rounded_times(source.t, source.rows, fps, step, anchored=False)
     source.t = t
     if note:
         source.repairs.append(note)
 
 
 def _choose_angles(
-    path: str | Path,
     source: LogSource,
     mapping: dict[str, str],
     points: Mapping[str, str] | None,
@@ -196,25 +207,25 @@ def _choose_angles(
     if use_points:
         if not source.point_tracks:
             raise TrebuchetInputError(
-                f"{path}: points= is for files of point positions; this {source.fmt} file "
+                f"points= is for files of point positions; this {source.fmt} file "
                 f"holds no points (columns found: "
                 f"{', '.join(repr(c.label) for c in source.angle_columns) or 'none'})"
             )
         if mapping:
             raise TrebuchetInputError(
-                f"{path}: give either columns= (angle columns) or points= (point positions), "
-                f"not both"
+                "give either columns= (angle columns) or points= (point positions), "
+                "not both"
             )
-        return _from_points(path, source, points)
-    chosen = resolve(path, source.angle_columns, mapping, ANGLES, "columns", "column")
+        return _from_points(source, points)
+    chosen = resolve(source.angle_columns, mapping, ANGLES, "columns", "column")
     for angle in ANGLES:
         if angle not in chosen:
             if source.point_tracks and not source.angle_columns:
                 raise TrebuchetInputError(
-                    f"{path}: this {source.fmt} file holds point positions, not angles; "
+                    f"this {source.fmt} file holds point positions, not angles; "
                     f"use points= instead of columns="
                 )
-            raise missing_angle_error(path, angle, source.angle_columns)
+            raise missing_angle_error(angle, source.angle_columns)
     used = {chosen[a].label for a in ANGLES}
     unused = [c.label for c in source.angle_columns if c.label not in used]
     repairs = list(source.repairs)
@@ -240,17 +251,17 @@ def _has_default_angles(source: LogSource) -> bool:
 
 
 def _from_points(
-    path: str | Path, source: LogSource, points: Mapping[str, str] | None
+    source: LogSource, points: Mapping[str, str] | None
 ) -> ParsedLog:
     """The angles from the point positions named by ``points`` (see :mod:`.angles_from_points`)."""
-    chosen = resolve_points(path, source.point_tracks, dict(points) if points else None)
+    chosen = resolve_points(source.point_tracks, dict(points) if points else None)
     repairs = list(source.repairs)
     positions: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for role, cand in chosen.items():
         x, y, note = cand.data()
         if np.isnan(x).all() or np.isnan(y).all():
-            raise TrebuchetInputError(
-                f"{path}, point '{cand.label}' ({role}): no position at all"
+            raise TrebuchetInputError.at(
+                f"point '{cand.label}' ({role})", "no position at all"
             )
         positions[role] = (np.asarray(x, dtype=float), np.asarray(y, dtype=float))
         if note:

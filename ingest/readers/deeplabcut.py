@@ -18,8 +18,6 @@ Layout::
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
@@ -44,30 +42,30 @@ def looks_like_deeplabcut(numbered: list[tuple[int, str]]) -> bool:
 
 
 def read_deeplabcut(
-    path: str | Path, numbered: list[tuple[int, str]], fps: float | None, min_likelihood: float
+    numbered: list[tuple[int, str]], fps: float | None, min_likelihood: float
 ) -> LogSource:
     """Read a DeepLabCut CSV (see the module doc)."""
     lines = table_lines(numbered, ",")
     kinds = [line.cells[0].lower() if line.cells else "" for line in lines[:4]]
     if "coords" not in kinds:
         raise TrebuchetInputError(
-            f"{path}: a DeepLabCut file needs the header rows scorer, bodyparts and coords"
+            "a DeepLabCut file needs the header rows scorer, bodyparts and coords"
         )
     n_header = kinds.index("coords") + 1
     header = {kinds[k]: lines[k].cells for k in range(n_header)}
     if "bodyparts" not in header:
-        raise TrebuchetInputError(f"{path}: DeepLabCut header without a 'bodyparts' row")
+        raise TrebuchetInputError("DeepLabCut header without a 'bodyparts' row")
     coords_line = lines[n_header - 1]
     data = lines[n_header:]
     if not data:
         raise TrebuchetInputError(
-            f"{path}: only header rows (up to row {coords_line.number}), no data rows"
+            f"only header rows (up to row {coords_line.number}), no data rows"
         )
     n_columns = len(coords_line.cells)
-    check_row_lengths(path, data, n_columns)
+    check_row_lengths(data, n_columns)
     rows = np.array([line.number for line in data])
-    frame_raw = numeric_column(path, data, 0, "frame index")
-    t, frame = frames_to_time(path, frame_raw, rows, fps, "frame index")
+    frame_raw = numeric_column(data, 0, "frame index")
+    t, frame = frames_to_time(frame_raw, rows, fps, "frame index")
     parts: dict[str, dict[str, int]] = {}
     for i in range(1, n_columns):
         part = _cell(header["bodyparts"], i)
@@ -78,8 +76,8 @@ def read_deeplabcut(
     tracks = []
     for name, cols in parts.items():
         if "x" not in cols or "y" not in cols:
-            raise TrebuchetInputError(
-                f"{path}, row {coords_line.number}: bodypart '{name}' lacks an x or y column"
+            raise TrebuchetInputError.at(
+                f"row {coords_line.number}", f"bodypart '{name}' lacks an x or y column"
             )
         short = name.rsplit("/", 1)[-1]
         aliases = {name} | ({short} if bare.count(short) == 1 else set())
@@ -88,7 +86,7 @@ def read_deeplabcut(
                 label=name,
                 aliases=frozenset(aliases),
                 default=role_default(short) if bare.count(short) == 1 else None,
-                data=_point_getter(path, data, cols, name, min_likelihood),
+                data=_point_getter(data, cols, name, min_likelihood),
             )
         )
     return LogSource(
@@ -108,16 +106,16 @@ def _cell(cells: list[str], i: int) -> str:
 
 
 def _point_getter(
-    path: str | Path, data: list[Line], cols: dict[str, int], name: str, min_likelihood: float
+    data: list[Line], cols: dict[str, int], name: str, min_likelihood: float
 ):
     """A function returning (x, -y_image, note) of one bodypart, low likelihood as NaN."""
 
     def get() -> tuple[np.ndarray, np.ndarray, str | None]:
-        x = numeric_column(path, data, cols["x"], f"{name}/x")
-        y = -numeric_column(path, data, cols["y"], f"{name}/y")
+        x = numeric_column(data, cols["x"], f"{name}/x")
+        y = -numeric_column(data, cols["y"], f"{name}/y")
         note = None
         if "likelihood" in cols:
-            p = numeric_column(path, data, cols["likelihood"], f"{name}/likelihood")
+            p = numeric_column(data, cols["likelihood"], f"{name}/likelihood")
             low = (p < min_likelihood) & np.isfinite(x) & np.isfinite(y)
             if low.any():
                 x = np.where(low, np.nan, x)

@@ -17,8 +17,6 @@ Layout::
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
@@ -37,13 +35,13 @@ TIME_NAMES = frozenset({"t", "time"})
 FRAME_NAMES = frozenset({"frame", "frames", "frame number", "frame_number"})
 
 
-def read_generic(path: str | Path, numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
+def read_generic(numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
     """Read a generic angle log from its numbered non-blank lines (see the module doc)."""
     numbered = [(n, s) for n, s in numbered if not s.lstrip().startswith("#")]
     if not numbered:
-        raise TrebuchetInputError(f"{path}: no header row (only comment lines)")
+        raise TrebuchetInputError("no header row (only comment lines)")
     delimiter = sniff_delimiter(numbered[0][1])
-    header_line, data = header_and_rows(path, numbered, delimiter)
+    header_line, data = header_and_rows(numbered, delimiter)
     header = header_line.cells
     names = [split_unit(h) for h in header]
     time_cols = [i for i, (n, _) in enumerate(names) if n.lower() in TIME_NAMES]
@@ -51,26 +49,26 @@ def read_generic(path: str | Path, numbered: list[tuple[int, str]], fps: float |
     for cols, what in ((time_cols, "time"), (frame_cols, "frame")):
         if len(cols) > 1:
             raise TrebuchetInputError(
-                f"{path}: several {what} columns ({', '.join(repr(header[i]) for i in cols)})"
+                f"several {what} columns ({', '.join(repr(header[i]) for i in cols)})"
             )
     rows = np.array([line.number for line in data])
     frame = None
     if frame_cols:
         i = frame_cols[0]
-        raw = numeric_column(path, data, i, header[i])
+        raw = numeric_column(data, i, header[i])
         if not time_cols:
-            t, frame = frames_to_time(path, raw, rows, fps, header[i])
+            t, frame = frames_to_time(raw, rows, fps, header[i])
             time_label = header[i]
         elif np.isfinite(raw).all() and (raw == np.round(raw)).all():
             frame = raw.astype(np.int64)
     if time_cols:
         i = time_cols[0]
-        factor = time_factor(path, header[i], names[i][1], default=1.0)
-        t = numeric_column(path, data, i, header[i]) * factor
+        factor = time_factor(header[i], names[i][1], default=1.0)
+        t = numeric_column(data, i, header[i]) * factor
         time_label = header[i]
     elif not frame_cols:
         raise TrebuchetInputError(
-            f"{path}: no time column: expected 't', 'time' or 'frame' "
+            f"no time column: expected 't', 'time' or 'frame' "
             f"(columns found: {', '.join(repr(h) for h in header)})"
         )
     used = set(time_cols) | set(frame_cols)
@@ -79,7 +77,7 @@ def read_generic(path: str | Path, numbered: list[tuple[int, str]], fps: float |
             label=header[i],
             aliases=frozenset({header[i], names[i][0]}),
             default=angle_default(names[i][0]),
-            data=_angle_getter(path, data, i, header[i], names[i][1]),
+            data=_angle_getter(data, i, header[i], names[i][1]),
         )
         for i in range(len(header))
         if i not in used and header[i]
@@ -95,11 +93,11 @@ def read_generic(path: str | Path, numbered: list[tuple[int, str]], fps: float |
     )
 
 
-def _angle_getter(path: str | Path, data: list[Line], index: int, header: str, unit: str | None):
+def _angle_getter(data: list[Line], index: int, header: str, unit: str | None):
     """A function returning column ``index`` in rad (unit from the header, rad if none)."""
 
     def get() -> np.ndarray:
-        factor = angle_factor(path, header, unit, default=1.0)
-        return numeric_column(path, data, index, header) * factor
+        factor = angle_factor(header, unit, default=1.0)
+        return numeric_column(data, index, header) * factor
 
     return get

@@ -24,7 +24,6 @@ Layout::
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 
@@ -55,34 +54,34 @@ def looks_like_kinovea(numbered: list[tuple[int, str]]) -> bool:
     return any(_COORD.match(c) for c in cells[1:])
 
 
-def read_kinovea(path: str | Path, numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
+def read_kinovea(numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
     """Read a Kinovea trajectory CSV (see the module doc)."""
     delimiter = sniff_delimiter(numbered[0][1])
-    header_line, data = header_and_rows(path, numbered, delimiter)
+    header_line, data = header_and_rows(numbered, delimiter)
     header = header_line.cells
     rows = np.array([line.number for line in data])
-    raw = numeric_column(path, data, 0, header[0])
+    raw = numeric_column(data, 0, header[0])
     _, unit = split_unit(header[0])
     if unit is None:
         fractional = np.abs(raw - np.round(raw)) > 1e-9
         if fractional.any():
             k = int(np.argmax(fractional))
-            raise TrebuchetInputError(
-                f"{path}, row {rows[k]}, column '{header[0]}': time {raw[k]:g} has a "
+            raise TrebuchetInputError.at(
+                f"row {rows[k]}, column '{header[0]}'", f"time {raw[k]:g} has a "
                 f"fraction, but a Kinovea time without a unit is read in whole milliseconds; "
                 f"write the unit into the header, e.g. 'Time (s)'"
             )
-    factor = time_factor(path, header[0], unit, default=1e-3)
+    factor = time_factor(header[0], unit, default=1e-3)
     t = raw * factor
-    check_time(path, t, rows, header[0])
+    check_time(t, rows, header[0])
     repairs: list[str] = []
     ms = t * 1e3
     if np.isfinite(ms).all() and (np.abs(ms - np.round(ms)) < 1e-6).all():
         # a fitted frame rate is only reported in the note, never taken as the file's fps
-        t, _, note = snap_rounded_times(path, t, rows, fps, step=1e-3)
+        t, _, note = snap_rounded_times(t, rows, fps, step=1e-3)
         if note:
             repairs.append(note)
-    pairs = _point_columns(path, header)
+    pairs = _point_columns(header)
     objects: dict[str, int] = {}
     for name in pairs:
         obj = name.split("/")[0]
@@ -104,7 +103,7 @@ def read_kinovea(path: str | Path, numbered: list[tuple[int, str]], fps: float |
                 label=name,
                 aliases=frozenset(aliases),
                 default=default,
-                data=_point_getter(path, data, ix, iy, name),
+                data=_point_getter(data, ix, iy, name),
             )
         )
     return LogSource(
@@ -118,7 +117,7 @@ def read_kinovea(path: str | Path, numbered: list[tuple[int, str]], fps: float |
     )
 
 
-def _point_columns(path: str | Path, header: list[str]) -> dict[str, tuple[int, int]]:
+def _point_columns(header: list[str]) -> dict[str, tuple[int, int]]:
     """``{"object/point": (x column, y column)}``; error for an X without its Y."""
     xs: dict[str, int] = {}
     ys: dict[str, int] = {}
@@ -129,18 +128,18 @@ def _point_columns(path: str | Path, header: list[str]) -> dict[str, tuple[int, 
     pairs = {}
     for name, ix in xs.items():
         if name not in ys:
-            raise TrebuchetInputError(f"{path}: column '{name}/X' has no '{name}/Y'")
+            raise TrebuchetInputError(f"column '{name}/X' has no '{name}/Y'")
         pairs[name] = (ix, ys[name])
     return pairs
 
 
-def _point_getter(path: str | Path, data: list[Line], ix: int, iy: int, name: str):
+def _point_getter(data: list[Line], ix: int, iy: int, name: str):
     """A function returning (x, y, None) of one Kinovea point, y up."""
 
     def get() -> tuple[np.ndarray, np.ndarray, None]:
         return (
-            numeric_column(path, data, ix, f"{name}/X"),
-            numeric_column(path, data, iy, f"{name}/Y"),
+            numeric_column(data, ix, f"{name}/X"),
+            numeric_column(data, iy, f"{name}/Y"),
             None,
         )
 

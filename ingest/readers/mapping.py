@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from trebuchet.errors import TrebuchetInputError
@@ -52,13 +51,13 @@ def role_default(name: str) -> str | None:
 
 
 def check_mapping(
-    path: str | Path, mapping: Mapping[str, str] | None, targets: tuple[str, ...], arg: str
+    mapping: Mapping[str, str] | None, targets: tuple[str, ...], arg: str
 ) -> dict[str, str]:
     """Validate a user's ``columns=``/``points=`` mapping; return it as a plain dict."""
     if mapping is None:
         return {}
     if not isinstance(mapping, Mapping):
-        raise TrebuchetInputError(f"{path}: {arg}= must be a mapping, got {type(mapping).__name__}")
+        raise TrebuchetInputError(f"{arg}= must be a mapping, got {type(mapping).__name__}")
     out: dict[str, str] = {}
     for key, value in mapping.items():
         if arg == "columns":
@@ -66,17 +65,16 @@ def check_mapping(
         else:
             target, name = key, value
         if not isinstance(name, str) or not isinstance(target, str):
-            raise TrebuchetInputError(f"{path}: {arg}= entry {key!r}: {value!r} must be text")
+            raise TrebuchetInputError(f"{arg}= entry {key!r}: {value!r} must be text")
         if target not in targets:
             raise TrebuchetInputError(
-                f"{path}: {arg}= entry {key!r}: {target!r} is not one of {', '.join(targets)}"
+                f"{arg}= entry {key!r}: {target!r} is not one of {', '.join(targets)}"
             )
         out[name] = target
     return out
 
 
 def resolve(
-    path: str | Path,
     candidates: list[Candidate],
     mapping: dict[str, str],
     targets: tuple[str, ...],
@@ -100,18 +98,18 @@ def resolve(
             matches = [c for c in candidates if low in {a.lower() for a in c.aliases}]
         if not matches and not candidates and what == "column":
             raise TrebuchetInputError(
-                f"{path}: no column named {name!r}: the file holds point positions, not "
+                f"no column named {name!r}: the file holds point positions, not "
                 "angle columns; map its points with points= (--point pivot=NAME ...)")
         if not matches:
-            raise TrebuchetInputError(f"{path}: no {what} named {name!r} ({what}s found: {found})")
+            raise TrebuchetInputError(f"no {what} named {name!r} ({what}s found: {found})")
         if len(matches) > 1:
             raise TrebuchetInputError(
-                f"{path}: {arg}= name {name!r} is ambiguous: it matches "
+                f"{arg}= name {name!r} is ambiguous: it matches "
                 f"{', '.join(repr(c.label) for c in matches)}; use the full name"
             )
         if target in chosen:
             raise TrebuchetInputError(
-                f"{path}: {arg}= is ambiguous: both {by_name[target]!r} and {name!r} are "
+                f"{arg}= is ambiguous: both {by_name[target]!r} and {name!r} are "
                 f"mapped to {target}"
             )
         chosen[target] = matches[0]
@@ -123,7 +121,7 @@ def resolve(
         defaults = [c for c in candidates if c.default == target and c.label not in used]
         if len(defaults) > 1:
             raise TrebuchetInputError(
-                f"{path}: ambiguous {what}s for {target}: "
+                f"ambiguous {what}s for {target}: "
                 f"{', '.join(repr(c.label) for c in defaults)}; say which with "
                 f"{arg}={_example(arg, defaults[0].label, target)}"
             )
@@ -140,11 +138,11 @@ def _example(arg: str, name: str, target: str) -> str:
 
 
 def missing_angle_error(
-    path: str | Path, angle: str, candidates: list[Candidate], what: str = "column"
+    angle: str, candidates: list[Candidate], what: str = "column"
 ) -> TrebuchetInputError:
     """The error for an angle without a column: lists what the file has, suggests ``columns=``."""
     found = ", ".join(repr(c.label) for c in candidates) or "none"
     return TrebuchetInputError(
-        f"{path}: no {what} for the angle {angle} ({what}s found: {found}); name it with "
+        f"no {what} for the angle {angle} ({what}s found: {found}); name it with "
         f"columns={_example('columns', '<' + what + ' in the file>', angle)}"
     )

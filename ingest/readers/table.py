@@ -41,24 +41,24 @@ def read_text(path: str | Path) -> str:
     """
     p = Path(path)
     if not p.exists():
-        raise TrebuchetInputError(f"{path}: no such file")
+        raise TrebuchetInputError("no such file")
     if p.is_dir():
-        raise TrebuchetInputError(f"{path}: is a folder, not a log file")
+        raise TrebuchetInputError("is a folder, not a log file")
     try:
         raw = p.read_bytes()
     except OSError as exc:
-        raise TrebuchetInputError(f"{path}: cannot be read ({exc.strerror})") from None
+        raise TrebuchetInputError(f"cannot be read ({exc.strerror})") from None
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
         text = raw.decode("utf-16")
     elif b"\x00" in raw[:4096]:
-        raise TrebuchetInputError(f"{path}: is not a text (CSV) file")
+        raise TrebuchetInputError("is not a text (CSV) file")
     else:
         try:
             text = raw.decode("utf-8-sig")
         except UnicodeDecodeError:
             text = raw.decode("cp1252", errors="replace")
     if not text.strip():
-        raise TrebuchetInputError(f"{path}: the file is empty")
+        raise TrebuchetInputError("the file is empty")
     return text
 
 
@@ -125,7 +125,7 @@ def parse_number(cell: str) -> float | None:
 
 
 def numeric_column(
-    path: str | Path, lines: list[Line], index: int, name: str
+    lines: list[Line], index: int, name: str
 ) -> np.ndarray:
     """Return column ``index`` of the data ``lines`` as float64, NaN where empty.
 
@@ -137,34 +137,34 @@ def numeric_column(
         cell = line.cells[index] if index < len(line.cells) else ""
         value = parse_number(cell)
         if value is None:
-            raise TrebuchetInputError(
-                f"{path}, row {line.number}, column '{name}': {cell!r} is not a number"
+            raise TrebuchetInputError.at(
+                f"row {line.number}, column '{name}'", f"{cell!r} is not a number"
             )
         out[k] = value
     return out
 
 
-def check_row_lengths(path: str | Path, lines: list[Line], n_columns: int) -> None:
+def check_row_lengths(lines: list[Line], n_columns: int) -> None:
     """Error for a data row with more non-empty cells than the header has columns."""
     for line in lines:
         extra = [c for c in line.cells[n_columns:] if c]
         if extra:
-            raise TrebuchetInputError(
-                f"{path}, row {line.number}: {len(line.cells)} cells, but the header has "
+            raise TrebuchetInputError.at(
+                f"row {line.number}", f"{len(line.cells)} cells, but the header has "
                 f"{n_columns} columns (extra value {extra[0]!r})"
             )
 
 
-def header_and_rows(path: str | Path, numbered: list[tuple[int, str]],
+def header_and_rows(numbered: list[tuple[int, str]],
                     delimiter: str) -> tuple[Line, list[Line]]:
     """The header line and the data lines of a one-header table, every data line as long as
     the header; an error naming the file when there is no data row."""
     header_line, *data = table_lines(numbered, delimiter)
     if not data:
         raise TrebuchetInputError(
-            f"{path}: only a header row (row {header_line.number}), no data rows"
+            f"only a header row (row {header_line.number}), no data rows"
         )
-    check_row_lengths(path, data, len(header_line.cells))
+    check_row_lengths(data, len(header_line.cells))
     return header_line, data
 
 

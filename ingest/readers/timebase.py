@@ -3,28 +3,27 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
 
 
-def check_fps(path: str | Path, fps: float | None) -> float | None:
+def check_fps(fps: float | None) -> float | None:
     """Return ``fps`` (frames per second) as a float; error unless None or positive and finite."""
     if fps is None:
         return None
     try:
         value = float(fps)
     except (TypeError, ValueError):
-        raise TrebuchetInputError(f"{path}: fps={fps!r} is not a number") from None
+        raise TrebuchetInputError(f"fps={fps!r} is not a number") from None
     if not math.isfinite(value) or value <= 0:
-        raise TrebuchetInputError(f"{path}: fps={fps!r} must be a positive frame rate (1/s)")
+        raise TrebuchetInputError(f"fps={fps!r} must be a positive frame rate (1/s)")
     return value
 
 
 def frames_to_time(
-    path: str | Path, frame: np.ndarray, rows: np.ndarray, fps: float | None, label: str
+    frame: np.ndarray, rows: np.ndarray, fps: float | None, label: str
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return (t in s, frame as int64) from frame numbers and the frame rate ``fps`` (1/s).
 
@@ -33,34 +32,34 @@ def frames_to_time(
     """
     if fps is None:
         raise TrebuchetInputError(
-            f"{path}: column '{label}' holds frame numbers and the file has no time column; "
+            f"column '{label}' holds frame numbers and the file has no time column; "
             f"pass the frame rate, e.g. fps=240"
         )
     bad = ~np.isfinite(frame)
     if bad.any():
         k = int(np.argmax(bad))
-        raise TrebuchetInputError(f"{path}, row {rows[k]}, column '{label}': frame number is empty")
+        raise TrebuchetInputError.at(f"row {rows[k]}, column '{label}'", "frame number is empty")
     frac = np.abs(frame - np.round(frame))
     if (frac > 1e-9).any():
         k = int(np.argmax(frac > 1e-9))
-        raise TrebuchetInputError(
-            f"{path}, row {rows[k]}, column '{label}': frame number {frame[k]:g} is not whole"
+        raise TrebuchetInputError.at(
+            f"row {rows[k]}, column '{label}'", f"frame number {frame[k]:g} is not whole"
         )
     frame_int = np.round(frame).astype(np.int64)
     return frame_int / fps, frame_int
 
 
-def check_time(path: str | Path, t: np.ndarray, rows: np.ndarray, label: str) -> None:
+def check_time(t: np.ndarray, rows: np.ndarray, label: str) -> None:
     """Error for an empty time cell or a time earlier than the row before (naming the row)."""
     bad = ~np.isfinite(t)
     if bad.any():
         k = int(np.argmax(bad))
-        raise TrebuchetInputError(f"{path}, row {rows[k]}, column '{label}': the time is empty")
+        raise TrebuchetInputError.at(f"row {rows[k]}, column '{label}'", "the time is empty")
     back = np.diff(t) < 0
     if back.any():
         k = int(np.argmax(back)) + 1
-        raise TrebuchetInputError(
-            f"{path}, row {rows[k]}, column '{label}': time decreases "
+        raise TrebuchetInputError.at(
+            f"row {rows[k]}, column '{label}'", f"time decreases "
             f"({t[k]:.6g} s after {t[k - 1]:.6g} s on row {rows[k - 1]}); "
             f"a log must be in the order of its frames"
         )
@@ -70,7 +69,7 @@ def check_time(path: str | Path, t: np.ndarray, rows: np.ndarray, label: str) ->
 FRAME_RATE_RANGE = (5.0, 1e5)
 
 
-def check_frame_rate(path: str | Path, t: np.ndarray, label: str, fps: float | None) -> None:
+def check_frame_rate(t: np.ndarray, label: str, fps: float | None) -> None:
     """Error for times whose frame rate no film of a shot has (a time column in ms under an
     ``s`` header, or the other way round), and for a given ``fps`` that the log's own times
     contradict by more than 5 %. ``t`` in s, sorted."""
@@ -82,8 +81,8 @@ def check_frame_rate(path: str | Path, t: np.ndarray, label: str, fps: float | N
     low, high = FRAME_RATE_RANGE
     if not low <= rate <= high:
         hint = "ms" if rate < low else "s"
-        raise TrebuchetInputError(
-            f"{path}, column '{label}': the frames lie {1.0 / rate:.3g} s apart ({rate:.3g} "
+        raise TrebuchetInputError.at(
+            f"column '{label}'", f"the frames lie {1.0 / rate:.3g} s apart ({rate:.3g} "
             f"fps), which no film of a shot has; if the times are in {hint}, say so in the "
             f"header, e.g. '{label.split('(')[0].split('[')[0].strip() or 't'} ({hint})'")
     if fps is None:
@@ -94,7 +93,7 @@ def check_frame_rate(path: str | Path, t: np.ndarray, label: str, fps: float | N
     mean_rate = 1.0 / float(np.mean(near))
     if min(abs(rate / fps - 1.0), abs(mean_rate / fps - 1.0)) > 0.05:
         raise TrebuchetInputError(
-            f"{path}: fps={fps:g} disagrees with the log's times in column '{label}', whose "
+            f"fps={fps:g} disagrees with the log's times in column '{label}', whose "
             f"frames come {rate:.4g} per s; correct fps or leave it out")
 
 
@@ -126,7 +125,7 @@ def decimal_rounding(t: np.ndarray, period_fraction: float = 1e-3) -> float | No
 
 
 def snap_rounded_times(
-    path: str | Path, t: np.ndarray, rows: np.ndarray, fps: float | None, step: float,
+    t: np.ndarray, rows: np.ndarray, fps: float | None, step: float,
     anchored: bool = True,
 ) -> tuple[np.ndarray, float | None, str | None]:
     """Replace times rounded to ``step`` seconds (e.g. Kinovea's whole ms) by frame times.
@@ -155,8 +154,8 @@ def snap_rounded_times(
         off = np.abs(snapped - t)
         if (off > tol).any():
             k = int(np.argmax(off > tol))
-            raise TrebuchetInputError(
-                f"{path}, row {rows[k]}: time {t[k]:.6g} s is {off[k] * 1e3:.2f} ms from the "
+            raise TrebuchetInputError.at(
+                f"row {rows[k]}", f"time {t[k]:.6g} s is {off[k] * 1e3:.2f} ms from the "
                 f"nearest frame at fps={fps:g}; is the frame rate right?"
             )
         how = (f"the frame times k/fps at fps={fps:g}" if anchored

@@ -21,8 +21,6 @@ Layout, as Tracker writes it (tab by default; comma, semicolon or space possible
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
@@ -76,13 +74,13 @@ def looks_like_tracker(numbered: list[tuple[int, str]]) -> bool:
     return first in TIME_HEADERS and len(names) >= 1
 
 
-def read_tracker(path: str | Path, numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
+def read_tracker(numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
     """Read a Tracker export (see the module doc)."""
     lines = list(numbered)
     if lines[0][1].strip().startswith("#multi:"):
         lines = lines[1:]
     if len(lines) < 2:
-        raise TrebuchetInputError(f"{path}: a Tracker export needs a track-name row and a header")
+        raise TrebuchetInputError("a Tracker export needs a track-name row and a header")
     (_, name_text), (header_no, header_text) = lines[0], lines[1]
     d = _delimiter(header_text.rstrip("\r\n"))
     names = _split(name_text, d)
@@ -90,24 +88,24 @@ def read_tracker(path: str | Path, numbered: list[tuple[int, str]], fps: float |
     while header and not header[-1]:
         header.pop()
     if not header or split_unit(header[0])[0] not in TIME_HEADERS:
-        raise TrebuchetInputError(
-            f"{path}, row {header_no}: a Tracker header starts with 't' or 'frame', "
+        raise TrebuchetInputError.at(
+            f"row {header_no}", f"a Tracker header starts with 't' or 'frame', "
             f"found {header[0] if header else ''!r}"
         )
     data = [Line(n, _split(text, d)) for n, text in lines[2:]] if d == " " else table_lines(
         lines[2:], d
     )
     if not data:
-        raise TrebuchetInputError(f"{path}: only header rows (up to row {header_no}), no data")
-    check_row_lengths(path, data, len(header))
+        raise TrebuchetInputError(f"only header rows (up to row {header_no}), no data")
+    check_row_lengths(data, len(header))
     rows = np.array([line.number for line in data])
-    raw_time = numeric_column(path, data, 0, header[0])
+    raw_time = numeric_column(data, 0, header[0])
     frame = None
     time_name, time_unit = split_unit(header[0])
     if time_name == "frame":
-        t, frame = frames_to_time(path, raw_time, rows, fps, header[0])
+        t, frame = frames_to_time(raw_time, rows, fps, header[0])
     else:
-        t = raw_time * time_factor(path, header[0], time_unit, default=1.0)
+        t = raw_time * time_factor(header[0], time_unit, default=1.0)
     tracks = _track_spans(names, len(header))
     angle_columns: list[Candidate] = []
     point_tracks: list[Candidate] = []
@@ -128,7 +126,7 @@ def read_tracker(path: str | Path, numbered: list[tuple[int, str]], fps: float |
                     label=label,
                     aliases=frozenset(aliases),
                     default=default,
-                    data=_angle_getter(path, data, i, label, base, unit),
+                    data=_angle_getter(data, i, label, base, unit),
                 )
             )
         if "x" in by_name and "y" in by_name and track:
@@ -137,7 +135,7 @@ def read_tracker(path: str | Path, numbered: list[tuple[int, str]], fps: float |
                     label=track,
                     aliases=frozenset({track}),
                     default=role_default(track),
-                    data=_point_getter(path, data, by_name["x"], by_name["y"], track),
+                    data=_point_getter(data, by_name["x"], by_name["y"], track),
                 )
             )
     return LogSource(
@@ -167,28 +165,28 @@ def _track_spans(names: list[str], n_columns: int) -> list[tuple[str, list[int]]
 
 
 def _angle_getter(
-    path: str | Path, data: list[Line], index: int, label: str, base: str, unit: str | None
+    data: list[Line], index: int, label: str, base: str, unit: str | None
 ):
     """A function returning a Tracker column in rad: θ... columns default to degrees."""
 
     def get() -> np.ndarray:
         if unit is None and not base.startswith("θ"):
-            raise TrebuchetInputError(
-                f"{path}, column '{label}': no unit; write it into the header, e.g. "
+            raise TrebuchetInputError.at(
+                f"column '{label}'", f"no unit; write it into the header, e.g. "
                 f"'{base} (deg)' (known: {', '.join(sorted(ANGLE_UNITS))})"
             )
-        factor = angle_factor(path, label, unit, default=ANGLE_UNITS["deg"])
-        return numeric_column(path, data, index, label) * factor
+        factor = angle_factor(label, unit, default=ANGLE_UNITS["deg"])
+        return numeric_column(data, index, label) * factor
 
     return get
 
 
-def _point_getter(path: str | Path, data: list[Line], ix: int, iy: int, track: str):
+def _point_getter(data: list[Line], ix: int, iy: int, track: str):
     """A function returning (x, y, None) of a point-mass track, in the file's unit, y up."""
 
     def get() -> tuple[np.ndarray, np.ndarray, None]:
-        x = numeric_column(path, data, ix, f"{track}/x")
-        y = numeric_column(path, data, iy, f"{track}/y")
+        x = numeric_column(data, ix, f"{track}/x")
+        y = numeric_column(data, iy, f"{track}/y")
         return x, y, None
 
     return get

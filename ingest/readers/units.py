@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import re
-from pathlib import Path
 
 from trebuchet.errors import TrebuchetInputError
 
@@ -38,25 +37,25 @@ def split_unit(header: str) -> tuple[str, str | None]:
     return m.group("name").strip(), m.group("unit")
 
 
-def _factor(path: str | Path, header: str, unit: str | None, default: float,
+def _factor(header: str, unit: str | None, default: float,
             table: dict[str, float], what: str) -> float:
     """Factor from a column's unit to SI by ``table`` (``default`` when no unit is written)."""
     if unit is None:
         return default
     key = unit.strip().lower()
     if key not in table:
-        raise TrebuchetInputError(
-            f"{path}, column '{header}': unknown {what} unit {unit!r} "
+        raise TrebuchetInputError.at(
+            f"column '{header}'", f"unknown {what} unit {unit!r} "
             f"(known: {', '.join(sorted(set(table)))})"
         )
     return table[key]
 
 
-def time_factor(path: str | Path, header: str, unit: str | None, default: float) -> float:
+def time_factor(header: str, unit: str | None, default: float) -> float:
     """Factor from the time column's unit to seconds (``default`` when no unit is written)."""
-    return _factor(path, header, unit, default, TIME_UNITS, "time")
+    return _factor(header, unit, default, TIME_UNITS, "time")
 
 
-def angle_factor(path: str | Path, header: str, unit: str | None, default: float) -> float:
+def angle_factor(header: str, unit: str | None, default: float) -> float:
     """Factor from an angle column's unit to radians (``default`` when no unit is written)."""
-    return _factor(path, header, unit, default, ANGLE_UNITS, "angle")
+    return _factor(header, unit, default, ANGLE_UNITS, "angle")
