@@ -5,7 +5,7 @@
 smoothed state, with
 
 - **events** in the log's time: the trigger and release from the smoother, lift-off where
-  the reconstructed trough normal force reaches zero (:mod:`.lift_off`); each may be
+  the reconstructed trough normal force reaches zero (:mod:`.events.lift_off`); each may be
   given instead (``events={"trigger": s, "lift_off": s, "release": s}``, None = no such
   event);
 - **phases**: 0 at rest before the trigger (an extension of the contract: the static
@@ -150,14 +150,14 @@ class ReconstructOptions:
 
     ``release_model``: when the release is neither given nor the end of the sling's
     track (the track goes on past it: an empty sling swinging, a tracker following the
-    stone), it is checked against the engine's equations (:mod:`.release_model`: the
+    stone), it is checked against the engine's equations (:mod:`.events.release_model`: the
     measured θ̈, ψ̈ follow phase II before it and phase III after it); where the two
     disagree, or the smoother found no release, the model's release is handed to the
     smoother (a second smoothing) with its sd. None: no check. The first smoothing then
     runs with :func:`checking_settings` and the second, with the full settings and a
     release given (the model's, or where it is not used the smoother's own), takes its
     trigger and noise search (``smooth(tuned=…)``; 2 s at 1000 fps: about 0.47 s against
-    0.7 s for two full smoothings; accuracy on the 192 logs of :mod:`.release_model`:
+    0.7 s for two full smoothings; accuracy on the 192 logs of :mod:`.events.release_model`:
     release error median 0.24, 90 % 1.5 frames, 97 % within 2 sd, peak |F_S| 3.5 % /
     9.8 %). Angles near the release that fit the scene's equations worse than their
     noise allows warn (:func:`~.release_model.scene_doubt`: a scene a little off).
@@ -450,7 +450,7 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
                               ) -> tuple[pd.DataFrame, float | None]:
     """The smoothed log and the release's sd (s; None = the default) after checking the
     release of ``est`` (smoothed with :func:`checking_settings`) against the engine's
-    equations (:mod:`.release_model`); where the model's release is used the log is
+    equations (:mod:`.events.release_model`); where the model's release is used the log is
     smoothed again with it given (the noise search's result of ``est`` standing in for
     a new one: same log, only the release moves), its source says so and a note tells
     both times; else it is smoothed again with the smoother's own release given.

@@ -41,6 +41,7 @@ __all__ = [
     "state_rates_phase1",
     "state_rates_phase2",
     "state_rates_phase3",
+    "phase_state",
 ]
 
 
@@ -168,3 +169,22 @@ def state_rates_phase3(y: Any, e: Engine, g: float,
     """Time derivative of the phase-III state ``y = (θ, ψ, θ̇, ψ̇)``: ``(θ̇, ψ̇, θ̈, ψ̈)``."""
     th_dd, ps_dd = accelerations_phase3(y[0], y[1], y[2], y[3], e, g, lib)
     return y[2], y[3], th_dd, ps_dd
+
+
+def phase_state(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleType = np
+                ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any]:
+    """θ, ψ, φ (rad), θ̇, ψ̇, φ̇ (rad/s), θ̈, ψ̈, φ̈ (rad/s²) from the state ``y`` of phase
+    ``kind`` (I: ``(θ, ψ, θ̇, ψ̇)`` with φ from the trough; II: ``(θ, ψ, φ, θ̇, ψ̇, φ̇)``;
+    III: ``(θ, ψ, θ̇, ψ̇)``, φ and its derivatives NaN): the one dispatch from a phase to its
+    accelerations, for floats (compiled) and arrays alike."""
+    if kind == 1:
+        th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
+        ph, ph_d, th_dd, ps_dd, ph_dd = accelerations_phase1(th, ps, th_d, ps_d, e, g, H, lib)
+    elif kind == 2:
+        th, ps, ph, th_d, ps_d, ph_d = y[0], y[1], y[2], y[3], y[4], y[5]
+        th_dd, ps_dd, ph_dd = accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, lib)
+    else:
+        th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
+        th_dd, ps_dd = accelerations_phase3(th, ps, th_d, ps_d, e, g, lib)
+        ph = ph_d = ph_dd = th * lib.nan
+    return th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd

@@ -23,6 +23,7 @@ import pandas as pd
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.model import dynamics as dyn
+from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
 from trebuchet.model.flight import flight_summary
 from trebuchet.model.frames import frame
@@ -109,18 +110,7 @@ class Trajectory:
             p.sol.columns(t, out)
             return out
         e, g, H = self.scene.engine, self.scene.g, self.scene.start.H
-        y = p.sol(t)
-        if p.phase == 1:
-            th, ps, th_d, ps_d = y
-            ph, ph_d, th_dd, ps_dd, ph_dd = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H)
-        elif p.phase == 2:
-            th, ps, ph, th_d, ps_d, ph_d = y
-            th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g)
-        else:
-            th, ps, th_d, ps_d = y
-            th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
-            ph = ph_d = ph_dd = np.full_like(th, np.nan)
-        return np.array([th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd])
+        return np.array(dyn.phase_state(p.phase, p.sol(t), e, g, H))
 
 
 def _rhs(scene: Scene, kind: int, lib: ModuleType = math) -> Callable:
@@ -237,13 +227,10 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
         t0, beam, sling = _phase_sling(scene, t0, beam, sling, rtol, method, phases, events)
         th, ps, th_d, ps_d = beam
         ph, ph_d = sling
-        release_state = {
-            "t": t0,
-            "x": e.L1 * math.cos(th) + e.L4 * math.cos(ph),
-            "y": H + e.L1 * math.sin(th) + e.L4 * math.sin(ph),
-            "vx": -e.L1 * th_d * math.sin(th) - e.L4 * ph_d * math.sin(ph),
-            "vy": e.L1 * th_d * math.cos(th) + e.L4 * ph_d * math.cos(ph),
-        }
+        c_th, s_th, c_ph, s_ph = math.cos(th), math.sin(th), math.cos(ph), math.sin(ph)
+        x, y = kin.projectile_position_xy(c_th, s_th, c_ph, s_ph, e, H)
+        vx, vy = kin.projectile_velocity_xy(c_th, s_th, th_d, c_ph, s_ph, ph_d, e)
+        release_state = {"t": t0, "x": x, "y": y, "vx": vx, "vy": vy}
     # Phase III: beam and counterweight swing on; the projectile flies (or there is none).
     t_end = t0 + after_release
     if after_release > 0.0 or not phases:
@@ -358,7 +345,9 @@ def engine_energy(run: Mapping[str, Any], traj: Trajectory) -> np.ndarray:
         rs, e, s = traj.release_state, traj.scene.engine, traj.scene
         y_rest = 0.0
         if s.projectile == "sling":
-            y_rest = s.start.H + e.L1 * math.sin(s.start.theta) + e.L4 * math.sin(s.start.phi)
+            y_rest = kin.projectile_position_xy(
+                math.cos(s.start.theta), math.sin(s.start.theta), math.cos(s.start.phi),
+                math.sin(s.start.phi), e, s.start.H)[1]
         at_release = 0.5 * e.m * (rs["vx"] ** 2 + rs["vy"] ** 2) + e.m * s.g * (rs["y"] - y_rest)
         E_m = np.where(np.asarray(run["phase"]) == 3, at_release, E_m)
     return E_m + np.asarray(run["E_M"]) + np.asarray(run["E_beam"])

@@ -3,7 +3,7 @@ following phase II (projectile in the sling) and start following phase III (rele
 
 Used by :func:`~trebuchet.ingest.reconstruct.reconstruct` when the sling's track goes on
 past the release (an empty sling swinging, a tracker following the stone): the
-model-free jump search of :mod:`.events` then has nothing that marks the release. Two
+model-free jump search of :mod:`.detection` then has nothing that marks the release. Two
 stages, both with the model's own accelerations
 (:func:`trebuchet.model.dynamics.accelerations_phase1` / ``_phase2`` / ``_phase3``) on
 the smoothed state:
@@ -160,25 +160,26 @@ def _none(how: str, misfit: float = float("nan"), log_ratio: float = 0.0) -> Mod
 def phase_accelerations(state: Mapping[str, np.ndarray], scene: Scene
                         ) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """θ̈ and ψ̈ (rad/s²) that each phase of ``scene`` predicts on every row of ``state``
-    (``theta``, ``psi``, ``phi`` rad and their rates ``_d`` rad/s): phase 1 by
-    :func:`~trebuchet.model.dynamics.accelerations_phase1` (φ from the trough), 2 by
-    ``accelerations_phase2``, 3 by ``accelerations_phase3``; NaN where a phase's formula
-    is undefined (θ off the trough)."""
+    (``theta``, ``psi``, ``phi`` rad and their rates ``_d`` rad/s): the accelerations of
+    :func:`~trebuchet.model.dynamics.phase_state` (phase 1 with φ from the trough); NaN where
+    a phase's formula is undefined (θ off the trough)."""
     e, g = scene.engine, scene.g
     th, ps, ph = (np.asarray(state[a], dtype=float) for a in ("theta", "psi", "phi"))
     th_d, ps_d, ph_d = (np.asarray(state[a + "_d"], dtype=float) for a in ("theta", "psi", "phi"))
     out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    states = {1: (th, ps, th_d, ps_d), 2: (th, ps, ph, th_d, ps_d, ph_d), 3: (th, ps, th_d, ps_d)}
     with np.errstate(invalid="ignore", divide="ignore"):
-        if 1 in scene.phases:
-            _, _, a, b, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, scene.start.H)
-            out[1] = (np.asarray(a, dtype=float), np.asarray(b, dtype=float))
-        if 2 in scene.phases:
-            a, b, _ = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g)
-            out[2] = (np.asarray(a, dtype=float), np.asarray(b, dtype=float))
-        a, b = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
-        out[3] = (np.broadcast_to(np.asarray(a, dtype=float), th.shape),
-                  np.broadcast_to(np.asarray(b, dtype=float), th.shape))
+        for kind, y in states.items():
+            if kind in scene.phases or kind == 3:
+                a, b = dyn.phase_state(kind, y, e, g, scene.start.H)[6:8]
+                out[kind] = (_rows(a, th.shape), _rows(b, th.shape))
     return out
+
+
+def _rows(x: np.ndarray | float, shape: tuple[int, ...]) -> np.ndarray:
+    """``x`` as a float array of ``shape`` (a constant spread over the rows, read-only)."""
+    x = np.asarray(x, dtype=float)
+    return x if x.shape == shape else np.broadcast_to(x, shape)
 
 
 def _frame_loglik(measured: tuple[np.ndarray, ...], measured_sd: tuple[np.ndarray, ...],

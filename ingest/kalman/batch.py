@@ -4,7 +4,7 @@ The filter is the one of filterpy's ``KalmanFilter.batch_filter`` (predict, then
 update, every step) and ``rts_smoother``, written for a scalar measurement of the
 first state component and batched in numpy over ``B`` series that share the time
 steps (several angles, several candidate process noises). The filter's loop over the
-frames is compiled (:mod:`.kalman_kernel`); the backward passes are Python loops over
+frames is compiled (:mod:`.kernel`); the backward passes are Python loops over
 the ``n`` time steps, each step a handful of numpy operations on ``(B, k, k)`` arrays,
 so their cost hardly grows with ``B``. docs/background.md ("Differentiating video angles"): filterpy
 runs about 30k samples/s; both agree to round-off (``tests/test_smooth_kalman.py``
@@ -179,7 +179,7 @@ def batch_kalman_filter(
     x0, P0 : (B, k), (B, k, k) prior at frame 0, before the step-0 prediction.
     store : keep the histories needed by :func:`backward_smoother`.
 
-    The steps after a leading rest run compiled (:func:`.kalman_kernel.filter_steps`). The
+    The steps after a leading rest run compiled (:func:`.kernel.filter_steps`). The
     update is the simple form ``P = Pp - K H Pp`` (filterpy: Joseph form, equal in exact
     arithmetic; they differ by round-off, ~1e-9 of the largest variance near a kick).
     """
