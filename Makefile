@@ -37,7 +37,7 @@ test: install-test
 
 bench: install-test
 	$(BIN)/python -m bench
-	$(BIN)/python docs/update_readme.py
+	$(BIN)/python docs/update_docs.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info
