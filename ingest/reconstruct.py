@@ -43,11 +43,13 @@ from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, check_ch
 from trebuchet.ingest.advisory import resolution_advisories
 from trebuchet.ingest.events.lift_off import lift_off_sd, lift_off_time
 from trebuchet.ingest.events.release_model import (
+    ModelRelease,
     ReleaseFit,
     release_choice,
     release_from_model,
     scene_doubt,
 )
+from trebuchet.ingest.events.sling_continuation import continued_sling
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.smooth import (
@@ -101,11 +103,14 @@ class ReconstructOptions:
     ends while the others go on, the release is put between its last frame and the next
     (sd: the gap / √12) and handed to the smoother, instead of the smoother's search for
     a jump in the last frames of the track (which at 60 fps landed about 6 frames early
-    on simulated logs, ``bench/ingest_accuracy.py``). ``resolution_fraction``: the advisory
-    speaks where a load's sd exceeds this fraction of its peak. ``model``: the smoother's
-    model ("ca", "cj", or per angle the likelier of both, "select", or their mixture,
-    "average": :mod:`~trebuchet.ingest.smoothing.model_choice`); ``smooth``: its settings
-    (default: the preset's). Measured on ``bench/ingest_accuracy.py`` (six seeds,
+    on simulated logs, ``bench/ingest_accuracy.py``); with ``release_model`` set, a
+    track's end is the release only if the engine agrees (:func:`_lost_or_released`: a
+    track lost before the release is carried on by the sling's pendulum).
+    ``resolution_fraction``: the advisory speaks where a load's sd exceeds this fraction of
+    its peak. ``model``: the smoother's model ("ca", "cj", or per angle the likelier of
+    both, "select", or their mixture, "average":
+    :mod:`~trebuchet.ingest.smoothing.model_choice`); ``smooth``: its settings (default: the
+    preset's). Measured on ``bench/ingest_accuracy.py`` (six seeds,
     projected form; inside / too narrow / too wide of 85–99 %, mean |F_R| RMS error):
     the default 157 / 0 / 3, 1.62 % (seeds 6–11: 158 / 0 / 2, 12–17: 160 / 0 / 0;
     :class:`~trebuchet.ingest.smoothing.smooth.SmoothSettings` gives the steps to it: bands of
@@ -459,16 +464,8 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     model's release is still used). ``angles_log`` (3, n): the log's θ, ψ, φ (rad) as
     :func:`~.smooth.validated_log` gave them."""
     settings = options.release_model
-    noise = est.attrs["noise"]  # theta and psi are tracked (reconstruct checks)
-    angles = {}
-    for a in ("theta", "psi"):
-        z = angles_log[ANGLES.index(a)].copy()
-        ok = np.isfinite(z)
-        z[ok] = np.unwrap(z[ok])  # as the smoother does
-        angles[a] = z
     found = est.attrs["events"]
-    fitted = release_from_model(angles, est, scene, found.get("trigger"),
-                                {a: noise[a]["r_sd"] for a in ("theta", "psi")}, settings)
+    fitted = _model_release(angles_log, est, scene, settings)
     t = est["t"].to_numpy(dtype=float)
     sd_free = options.event_sd_frames * float(np.median(np.diff(t)))
     use, sentence = release_choice(fitted, found.get("release"), settings)
@@ -495,6 +492,92 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     est.attrs["notes"] = [*notes, *(n for n in est.attrs.get("notes", []) if n not in notes),
                           sentence, *([doubt] if doubt is not None else [])]
     return est, fitted.sd
+
+
+#: A sling track that ends is a lost track, not the release, where the engine's equations
+#: put the release this many of their sd after the first frame the track misses (at 1 sd,
+#: 3 of 4 simulated logs at 60–120 fps and 1–2° whose track ends at the release were
+#: taken for lost ones: the sd is the model's, the track end's own is a frame).
+LOST_TRACK_SD = 3.0
+
+
+def _model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
+                   settings: ReleaseFit) -> ModelRelease:
+    """:func:`.events.release_model.release_from_model` on the log's raw θ and ψ (rad,
+    unwrapped as the smoother does; ``angles_log`` (3, n) as ``validated_log`` gave them)
+    and the smoothed ``est``, with the smoother's noise sd and trigger."""
+    noise = est.attrs["noise"]  # theta and psi are tracked (reconstruct checks)
+    angles = {}
+    for a in ("theta", "psi"):
+        z = angles_log[ANGLES.index(a)].copy()
+        ok = np.isfinite(z)
+        z[ok] = np.unwrap(z[ok])  # as the smoother does
+        angles[a] = z
+    return release_from_model(angles, est, scene, est.attrs["events"].get("trigger"),
+                              {a: noise[a]["r_sd"] for a in ("theta", "psi")}, settings)
+
+
+def _with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
+                          until: float | None = None) -> pd.DataFrame:
+    """``est`` with φ, φ̇, φ̈ and their sd (and ``attrs["cov"]["phi"]``) filled on the rows
+    after the sling track's last row ``last`` (up to the time ``until``, s; all rows if
+    None) by the sling's pendulum driven by the smoothed beam
+    (:mod:`.events.sling_continuation`)."""
+    cov = dict(est.attrs["cov"])
+    cont = continued_sling({c: est[c].to_numpy(dtype=float) for c in
+                            ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")},
+                           scene, last, cov["phi"][last][:3, :3])
+    keep = np.ones(cont.rows.size, bool) if until is None else (
+        est["t"].to_numpy(dtype=float)[cont.rows] <= until)
+    rows = cont.rows[keep]
+    out = est.copy()
+    out.attrs = dict(est.attrs)
+    phi_cov = np.array(cov["phi"], dtype=float, copy=True)
+    phi_cov[rows] = 0.0
+    phi_cov[rows, :3, :3] = cont.cov[keep]
+    cov["phi"] = phi_cov
+    out.attrs["cov"] = cov
+    for j, (suffix, values) in enumerate((("", cont.phi), ("_d", cont.phi_d),
+                                          ("_dd", cont.phi_dd))):
+        out.loc[out.index[rows], "phi" + suffix] = values[keep]
+        out.loc[out.index[rows], "phi" + suffix + "_sd"] = np.sqrt(cont.cov[keep, j, j])
+    return out
+
+
+def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFrame,
+                      scene: Scene, options: ReconstructOptions,
+                      smooth_events: dict[str, float | None],
+                      q: float | Mapping[str, float] | None,
+                      r: float | Mapping[str, float] | None,
+                      track_end: tuple[float, float]) -> tuple[pd.DataFrame, float]:
+    """The smoothed log and the release's sd (s) where the sling's track ends while θ and ψ
+    go on: a release only if the engine agrees. φ is carried on past the track by the
+    sling's pendulum, and the release is sought in θ and ψ with the engine's equations
+    (:func:`_model_release`). Where they put it, by :data:`LOST_TRACK_SD` of its sd, after
+    the first frame the track misses, the track was lost, not released: the log is
+    smoothed again with the equations' release, φ carried on up to it (phase II keeps its
+    sling loads), and a note says so; else the track's end stands (``est`` as it is)."""
+    settings = options.release_model
+    phi = est["phi"].to_numpy(dtype=float)
+    last = int(np.flatnonzero(np.isfinite(phi))[-1])
+    fitted = _model_release(angles_log, _with_continued_sling(est, scene, last), scene,
+                            settings)
+    t = est["t"].to_numpy(dtype=float)
+    if (fitted.time is None or not fitted.misfit <= settings.max_misfit
+            or fitted.time - LOST_TRACK_SD * fitted.sd <= t[last + 1]):
+        return est, track_end[1]
+    t_last = float(t[last])
+    again = _smooth_again(log, est, options, smooth_events, q, r, fitted.time)
+    again = _with_continued_sling(again, scene, last, until=fitted.time)
+    again.attrs["event_sources"]["release"] = (
+        f"the engine's equations (the sling's track was lost at {t_last:.4f} s)")
+    gap = fitted.time - track_end[0]
+    again.attrs["notes"] = [*again.attrs.get("notes", []), (
+        f"the sling's track ends at {t_last:.4f} s, but θ and ψ follow the engine in the sling "
+        f"until {fitted.time:.4f} s (sd {1e3 * fitted.sd:.1f} ms, {1e3 * gap:.0f} ms later): "
+        "the track was lost, not released; φ is carried on by the sling's pendulum up to the "
+        "release")]
+    return again, fitted.sd
 
 
 def _smooth_again(log: pd.DataFrame, est: pd.DataFrame, options: ReconstructOptions,
@@ -612,6 +695,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
              and options.release_model is not None)
     untracked = [a for a, z in zip(ANGLES, angles_log, strict=True)
                  if a != "phi" and not np.isfinite(z).any()]
+    confirm = (track_end is not None and options.release_model is not None and not untracked
+               and "release" not in given)
     unchecked = check and bool(untracked)
     check = check and not untracked
     settings = smoother_settings(options)
@@ -620,10 +705,15 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     release_sd = None
     if track_end is not None:
         leaves = log.attrs.get("leaves_sling")
+        seen_leaving = leaves is not None and leaves["t"] == track_end[0]
         est.attrs["event_sources"]["release"] = (
-            "the tracked stone leaves its sling's circle"
-            if leaves is not None and leaves["t"] == track_end[0] else "end of the sling track")
+            "the tracked stone leaves its sling's circle" if seen_leaving
+            else "end of the sling track")
         release_sd = track_end[1]
+        if confirm and not seen_leaving:  # a stone seen in flight was released; a track
+            # that just ends may have been lost
+            est, release_sd = _lost_or_released(log, angles_log, est, scene, options,
+                                                smooth_events, q, r, track_end)
     elif check:
         est, release_sd = _release_by_the_equations(log, angles_log, est, scene, options,
                                                     smooth_events, q, r)

@@ -38,6 +38,7 @@ __all__ = [
     "accelerations_phase1",
     "accelerations_phase2",
     "accelerations_phase3",
+    "sling_pendulum_phi_dd",
     "state_rates_phase1",
     "state_rates_phase2",
     "state_rates_phase3",
@@ -139,8 +140,17 @@ def accelerations_phase2(theta: Any, psi: Any, phi: Any, theta_d: Any, psi_d: An
                          + c * (e.L1 * w2 * s - g * cos_ph))
     theta_dd, psi_dd = beam_and_counterweight(theta, psi, theta_d, psi_d, q_p,
                                               e.m * e.L1 * e.L1 * s * s, e, g, lib)
-    phi_dd = (e.L1 * (s * w2 - c * theta_dd) - g * cos_ph) / e.L4
+    phi_dd = sling_pendulum_phi_dd(theta, theta_d, theta_dd, phi, e, g, lib)
     return theta_dd, psi_dd, phi_dd
+
+
+def sling_pendulum_phi_dd(theta: Any, theta_d: Any, theta_dd: Any, phi: Any, e: Engine,
+                          g: float, lib: ModuleType = np) -> Any:
+    """Phase II: the sling as a pendulum of length L4 hung from the moving spigot,
+    ``φ̈ = (L1 (sin(θ−φ) θ̇² − cos(θ−φ) θ̈) − g cos φ)/L4`` (rad/s²; the paper's sling
+    equation), for any motion of the beam."""
+    s, c = lib.sin(theta - phi), lib.cos(theta - phi)
+    return (e.L1 * (s * (theta_d * theta_d) - c * theta_dd) - g * lib.cos(phi)) / e.L4
 
 
 def accelerations_phase3(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
