@@ -56,12 +56,14 @@ from .track_flags import RAYLEIGH_MEDIAN, FlaggedTrack, flag_tracks
 __all__ = ["LEVELS", "CAMERA_PARAMETERS", "LevelFit", "Calibration", "calibrate",
            "angles_from_calibration"]
 
-#: Camera models from the simplest (a fronto-parallel camera with a perfect lens) up.
-LEVELS = ("similarity", "affine", "projective", "projective+k1", "projective+k1+k2")
+#: Camera models from the simplest up: "level" a fronto-parallel camera with a perfect lens
+#: whose rows are horizontal (today's atan2 of the pixels); "similarity" the same turned
+#: about its optical axis; "affine" adds aspect and shear; "projective" the tilt; then k1, k2.
+LEVELS = ("level", "similarity", "affine", "projective", "projective+k1", "projective+k1+k2")
 #: The camera's parameters: translation (px), scale (px per L1), turn (rad), α, β, p1, p2
 #: (per L1), k1, k2 (per radius R).
 CAMERA_PARAMETERS = ("tx", "ty", "scale", "turn", "alpha", "beta", "p1", "p2", "k1", "k2")
-_FREE = {"similarity": 4, "affine": 6, "projective": 8, "projective+k1": 9,
+_FREE = {"level": 3, "similarity": 4, "affine": 6, "projective": 8, "projective+k1": 9,
          "projective+k1+k2": 10}
 #: Branch of each angle's first value: [-π, π) for θ and ψ, [-3π/2, π/2) for φ (the
 #: sling starts near −180°), as in :mod:`trebuchet.ingest.angles_from_points`.
@@ -552,10 +554,30 @@ def _start_flight(pb: _Problem, cam: np.ndarray) -> np.ndarray:
     return np.array([cx[0], cy[0], cx[1], cy[1]])
 
 
+def _onset(d: np.ndarray, low: float, power: float) -> int:
+    """Frame where a departure ``d`` (n,) from rest starts, for a departure growing like
+    ``(t − t0)^power``: from the first frames ``a`` and ``b`` (three in a row) above ``low``
+    and ``4 low``, ``t0 = (4^(1/power) a − b) / (4^(1/power) − 1)`` (earlier when it grows
+    more slowly than that: on the safe side). ``d.size`` when it never departs."""
+    def first_above(level: float) -> int | None:
+        up = np.nan_to_num(d, nan=0.0) > level
+        run = up[:-2] & up[1:-1] & up[2:]
+        return int(np.flatnonzero(run)[0]) if run.any() else None
+
+    a, b = first_above(low), first_above(4.0 * low)
+    if a is None:
+        return d.size
+    if b is None:
+        return a
+    q = 4.0 ** (1.0 / power)
+    return max(int(np.floor((q * a - b) / (q - 1.0))), 0)
+
+
 def _rest_frames(track: np.ndarray, frames: int = 5, z: float = 6.0) -> np.ndarray:
-    """Frames before the engine first moves: ``track`` (n, 2) px of a moving point stays
-    within ``z`` noise sd of its first ``frames`` positions (noise from the frame-to-frame
-    steps there); two frames of margin before the first move."""
+    """Frames before the engine first moves: ``track`` (n, 2) px of a moving point departs
+    from its first ``frames`` positions by more than ``z`` noise sd (noise from the
+    frame-to-frame steps there); the onset of that departure (quadratic: the beam's
+    acceleration jumps at the trigger) ends the rest."""
     n = track.shape[0]
     ok = np.isfinite(track).all(axis=1)
     head = np.flatnonzero(ok)[:4 * frames]
@@ -564,11 +586,9 @@ def _rest_frames(track: np.ndarray, frames: int = 5, z: float = 6.0) -> np.ndarr
     steps = np.hypot(*np.diff(track[head], axis=0).T)
     noise = max(float(np.median(steps)) / RAYLEIGH_MEDIAN / np.sqrt(2.0), 0.05)
     centre = np.median(track[head[:frames]], axis=0)
-    dist = np.hypot(*(track - centre).T)
-    away = np.flatnonzero(ok & (dist > max(z * noise, 1.0)))
-    first = away[0] if away.size else n
+    first = _onset(np.hypot(*(track - centre).T), max(z * noise, 1.0), 2.0)
     rest = np.zeros(n, bool)
-    rest[:max(first - max(3, first // 10), 0)] = True            # margin: the motion's onset
+    rest[:max(first - 1, 0)] = True
     rest &= ok
     return rest if rest.sum() >= frames else np.zeros(n, bool)
 
@@ -596,18 +616,13 @@ def _sling_frames(obs: dict[str, np.ndarray], pivot: np.ndarray) -> np.ndarray:
     return out
 
 
-def _trough_frames(y: np.ndarray, rest: np.ndarray, tol: float, level: float) -> np.ndarray:
+def _trough_frames(y: np.ndarray, rest: np.ndarray, tol: float) -> np.ndarray:
     """Frames from the start on which the projectile's height ``y`` (units of L1, trough at
-    0) stays on the trough's level: it first rises above ``tol`` for three frames in a row,
-    and lifted off where, walking back from there, it last stood within ``level`` of 0."""
-    n = y.size
-    up = np.nan_to_num(y, nan=0.0) > tol
-    run = up[:-2] & up[1:-1] & up[2:] if n > 2 else up
-    first = int(np.flatnonzero(run)[0]) if run.any() else n
-    while first > 0 and not np.nan_to_num(y[first - 1], nan=0.0) <= level:
-        first -= 1                                              # still rising: lifted off
-    out = np.zeros(n, bool)
-    out[:first] = True
+    0) stays on the trough's level: until the onset of its rise above ``tol`` (cubic: at
+    lift-off the trough's push falls to zero continuously)."""
+    first = _onset(y, tol, 3.0)
+    out = np.zeros(y.size, bool)
+    out[:max(first - 1, 0)] = True
     return out & (np.isfinite(y) | rest)
 
 
@@ -773,7 +788,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         if level == "given":
             return np.zeros(0, int)
         idx = list(range(_FREE[level]))
-        if not vertical:
+        if not vertical and 3 in idx:
             idx.remove(3)
         return np.array(idx, int)
 
@@ -804,7 +819,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     step = max(1, int(np.ceil(n / selection_frames)))
     sub = pb.subset(np.arange(0, n, step))
     fits: list[LevelFit] = []
-    sols: dict[str, np.ndarray] = {}
+    sols: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     sub.free = free_of(levels[-1])
     res = _solve(sub, x_of(sub, cam0, np.zeros((5, 2)), np.zeros(0), sub.ang0))
     if noise_px is None:
@@ -823,12 +838,12 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         sub.cam0 = cam
         sub.ang0 = _start_angles(sub, cam)
         fit = _solve(sub, x_of(sub, cam, top_off, top_fl, sub.ang0))
-        sols[level] = fit.x
+        sols[level] = (fit.x, cam)
         fits.append(LevelFit(level, float(fit.cost), int(sub.free.size),
                              2.0 * float(fit.cost) + sub.free.size * np.log(n_obs)))
     best = _pick_level(fits)
-    sub.free = free_of(best.level)
-    cam_best, off_best, fl_best, _ = sub.split(sols[best.level])
+    sub.free, sub.cam0 = free_of(best.level), sols[best.level][1]
+    cam_best, off_best, fl_best, _ = sub.split(sols[best.level][0])
 
     # --- the projectile's trough frames, from its height with the chosen camera
     if trough and in_trough is None and "projectile" in obs and rest.any():
@@ -840,7 +855,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         sd = 1.4826 * float(np.median(np.abs(y_rest - np.median(y_rest)))) if y_rest.size else 0
         floor = pb.sigma / cam_best[2]                           # one noise sd, units of L1
         pb.trough = _trough_frames(y - (np.median(y_rest) if y_rest.size else 0.0), rest,
-                                   max(5.0 * sd, 3.0 * floor), max(2.0 * sd, 0.5 * floor))
+                                   max(5.0 * sd, 3.0 * floor))
     # --- all frames at the chosen level
     pb.free, pb.cam0 = free_of(best.level), cam_best
     pb.ang0 = _start_angles(pb, cam_best)
