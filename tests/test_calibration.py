@@ -116,14 +116,14 @@ def test_fit_jacobian_matches_finite_differences(backyard, monkeypatch):
     checked = []
     solve = cal_mod._solve
 
-    def check(pb, x0, max_nfev=60):
+    def check(pb, x0, *args):
         x = x0 + np.random.default_rng(0).normal(0.0, 1e-3, x0.size)
         Ja = pb.jacobian(x).toarray()
         Jn = approx_derivative(pb.residuals, x, method="3-point",
                                sparsity=pb.sparsity()).toarray()
         scale = np.abs(Jn).max(axis=0) + 1e-12
         checked.append((float((np.abs(Ja - Jn).max(axis=0) / scale).max()), pb.flight.any()))
-        return solve(pb, x0, max_nfev)
+        return solve(pb, x0, *args)
 
     monkeypatch.setattr(cal_mod, "_solve", check)
     calibrate(pts, backyard.engine, H=backyard.start.H, g=backyard.g, t=track.t,
@@ -233,3 +233,45 @@ def test_bad_points_are_refused(horsdal):
         calibrate({"pivot": np.zeros((10, 2))}, horsdal.engine, H=5.0)
     with pytest.raises(TrebuchetInputError, match="unknown points"):
         calibrate({"beam": np.zeros((10, 2))}, horsdal.engine, H=5.0)
+
+
+def test_block_normal_equations_match_the_sparse_jacobian(backyard, monkeypatch):
+    """The block solver's U, W, V and gradient equal those of the sparse Jacobian."""
+    track = simulated_plane_track(backyard, 60.0, rest=0.2, after_release=0.3)
+    cam = camera_from_pose(2500.0, SIZE, 25.0, (0.0, 4.0), pitch=np.radians(5.0), k1=-0.03)
+    pts = film(track, cam, SIZE, 0.3, np.random.default_rng(2))
+    checked = []
+    solve = cal_mod._solve
+
+    def check(pb, x0, *args):
+        rb = pb.row_blocks(x0)
+        r = pb.residuals(x0)
+        w = np.random.default_rng(1).uniform(0.5, 1.0, r.size)
+        U, W, V, gg, ga = rb.normal(w, r)
+        J = np.diag(w) @ rb.matrix().toarray()
+        JtJ, g = J.T @ J, J.T @ (w * r)
+        ng, n = pb.n_global, pb.n
+        assert np.allclose(U, JtJ[:ng, :ng]) and np.allclose(gg, g[:ng])
+        assert np.allclose(W, JtJ[:ng, ng:].reshape(ng, n, 3).transpose(1, 0, 2))
+        blocks = [JtJ[ng + 3 * f:ng + 3 * f + 3, ng + 3 * f:ng + 3 * f + 3] for f in range(n)]
+        assert np.allclose(V, np.array(blocks)) and np.allclose(ga.ravel(), g[ng:])
+        checked.append(True)
+        return solve(pb, x0, *args)
+
+    monkeypatch.setattr(cal_mod, "_solve", check)
+    calibrate(pts, backyard.engine, H=backyard.start.H, g=backyard.g, t=track.t,
+              image_size=SIZE, in_sling=track.in_sling)
+    assert checked
+
+
+def test_block_solver_agrees_with_scipy_least_squares(horsdal):
+    track = simulated_plane_track(horsdal, 60.0, rest=0.3)
+    pts = film(track, tilted_camera(), SIZE, 0.5, np.random.default_rng(7), OFFSETS)
+    common = dict(H=horsdal.start.H, image_size=SIZE, at_rest=track.at_rest,
+                  in_trough=track.in_trough, levels=("projective",), noise_px=0.5)
+    fast = calibrate(pts, horsdal.engine, **common)
+    ref = calibrate(pts, horsdal.engine, solver="scipy", **common)
+    assert fast.cost == pytest.approx(ref.cost, rel=1e-4)
+    for a in ("theta", "psi", "phi"):
+        diff = np.degrees(np.nanmax(np.abs(getattr(fast, a) - getattr(ref, a))))
+        assert diff < 1e-3

@@ -2,7 +2,8 @@
 
 A point log gives, frame by frame, the pixels of the pivot, spigot, hinge, counterweight
 and projectile. :func:`calibrate` fits, in one robust least squares over the whole log
-(``scipy.optimize.least_squares``, soft-L1 loss, sparse Jacobian), the map from the
+(soft-L1 loss, analytic sparse Jacobian; the frames' angles eliminated by the Schur
+complement, :mod:`.block_least_squares`, or ``scipy.optimize.least_squares``), the map from the
 engine's plane to the image together with every frame's angles θ, ψ, φ and a constant
 pixel offset of each marker. The scene makes it well posed:
 
@@ -45,9 +46,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import least_squares
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import TrebuchetInputError, check_choice
 from trebuchet.model.scene import Engine
 
+from .block_least_squares import RowBlocks, block_least_squares, normal_blocks
 from .camera import Camera, CameraPose, Intrinsics, apply_homography, camera_pose, undistort
 from .conic_start import circle_homography
 from .engine_points import POINTS
@@ -395,10 +397,12 @@ class _Problem:
         R, C = np.concatenate(rows), np.concatenate(cols)
         return sp.csr_matrix((np.ones(R.size), (R, C)), shape=(row, ng + 3 * n))
 
-    def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
-        """The residuals' Jacobian, analytic and sparse (same rows as :meth:`residuals`)."""
+    def row_blocks(self, x: np.ndarray) -> RowBlocks:
+        """The residuals' Jacobian, analytic, as its blocks (:class:`.RowBlocks`; rows as in
+        :meth:`residuals`): the point rows with every global column, each frame's angles
+        touching only its own rows."""
         cam, off, fl, ang = self.split(x)
-        n, nc, ng = self.n, self.free.size, self.n_global
+        nc, ng = self.free.size, self.n_global
         no = len(self.offset_points)
         l1, l2, l3, l4 = self.lengths
         th, ps, ph = ang[:, 0], ang[:, 1], ang[:, 2]
@@ -409,74 +413,51 @@ class _Problem:
         m = p_idx.size
         d_plane, d_cam = image_jacobian(cam, X[p_idx, f_idx], self.centre, self.radius)
         wt = self.wt[p_idx, f_idx][:, None]
-        d_plane = d_plane * wt[..., None]
-        d_cam = d_cam[..., self.free] * wt[..., None]
-        rows, cols, vals = [], [], []
-        r = np.arange(m)[:, None] * 2 + np.arange(2)[None, :]   # (m, 2) row of each coordinate
-        rows.append(np.repeat(r.ravel(), nc))                    # camera
-        cols.append(np.tile(np.arange(nc), 2 * m))
-        vals.append(d_cam.ravel())
-        for j, p in enumerate(self.offset_points):               # offsets: ∂u/∂δ = I
+        d_plane = d_plane * wt[..., None]                       # (m, 2, 2)
+        Jg = np.zeros((m, 2, ng))
+        Jg[:, :, :nc] = d_cam[..., self.free] * wt[..., None]   # camera
+        for j, p in enumerate(self.offset_points):              # offsets: ∂u/∂δ = I
             sel = p_idx == p
-            for d in (0, 1):
-                rows.append(r[sel, d])
-                cols.append(np.full(sel.sum(), nc + 2 * j + d))
-                vals.append(wt[sel, 0])
+            Jg[sel, 0, nc + 2 * j] = wt[sel, 0]
+            Jg[sel, 1, nc + 2 * j + 1] = wt[sel, 0]
+        flying = (p_idx == 4) & self.flight[f_idx]
+        if self.flight.any():                                   # x0, y0, vx, vy
+            tau = self.tau[f_idx[flying]][:, None]
+            dp = d_plane[flying]
+            Jg[flying, :, nc + 2 * no] = dp[:, :, 0]
+            Jg[flying, :, nc + 2 * no + 1] = dp[:, :, 1]
+            Jg[flying, :, nc + 2 * no + 2] = dp[:, :, 0] * tau
+            Jg[flying, :, nc + 2 * no + 3] = dp[:, :, 1] * tau
         et = np.column_stack([-np.sin(th), np.cos(th)])[f_idx]  # ∂e_θ/∂θ = e_θ⊥
         ep = np.column_stack([-np.sin(ps), np.cos(ps)])[f_idx]
         eph = np.column_stack([-np.sin(ph), np.cos(ph)])[f_idx]
-        flying = (p_idx == 4) & self.flight[f_idx]
-        lever = np.where(p_idx == 1, l1, np.where(p_idx == 4, l1, -l2))[:, None]
-        dth = lever * et                                         # ∂X̃/∂θ: L1 e_θ⊥ or −L2 e_θ⊥
+        lever = np.where((p_idx == 1) | (p_idx == 4), l1, -l2)[:, None]
+        dth = lever * et                                        # ∂X̃/∂θ: L1 e_θ⊥ or −L2 e_θ⊥
         if self.fixed_psi is not None:
             dth = dth + np.where(p_idx == 3, l3, 0.0)[:, None] * ep
-        sel = (p_idx > 0) & ~flying
-        blocks = [(sel, 0, dth)]
-        if self.fixed_psi is None:
-            blocks.append((p_idx == 3, 1, l3 * ep))              # ∂X̃/∂ψ = L3 e_ψ⊥
-        blocks.append(((p_idx == 4) & ~flying, 2, l4 * eph))     # ∂X̃/∂φ = L4 e_φ⊥
-        for mask, j, dX in blocks:
-            v = np.einsum("mij,mj->mi", d_plane[mask], dX[mask])
-            rows.append(r[mask].ravel())
-            cols.append(np.repeat(ng + 3 * f_idx[mask] + j, 2))
-            vals.append(v.ravel())
-        if self.flight.any():                                    # x0, y0, vx, vy
-            tau = self.tau[f_idx[flying]]
-            dp = d_plane[flying]
-            for q, (col, scale) in enumerate(((0, 1.0), (1, 1.0), (0, tau), (1, tau))):
-                rows.append(r[flying].ravel())
-                cols.append(np.full(2 * flying.sum(), nc + 2 * no + q))
-                vals.append((dp[:, :, col] * np.asarray(scale)[..., None]).ravel())
-        row = 2 * m
+        dth = np.where(((p_idx > 0) & ~flying)[:, None], dth, 0.0)
+        dps = np.where(((p_idx == 3) & (self.fixed_psi is None))[:, None], l3 * ep, 0.0)
+        dph = np.where(((p_idx == 4) & ~flying)[:, None], l4 * eph, 0.0)   # L4 e_φ⊥
+        Ja = d_plane @ np.stack([dth, dps, dph], axis=-1)       # ∂u/∂X̃ ∂X̃/∂(θ, ψ, φ)
         k = self.gauge_px / self.sigma
-        rest = np.flatnonzero(self.rest)
-        rows.append(row + np.arange(rest.size))
-        cols.append(ng + 3 * rest + 1)
-        vals.append(-k * l3 * np.sin(ps[rest]))                  # ∂(L3 cos ψ)/∂ψ
-        row += rest.size
-        tr = np.flatnonzero(self.trough)
-        for j, d in ((0, k * l1 * np.cos(th[tr])), (2, k * l4 * np.cos(ph[tr]))):
-            rows.append(row + np.arange(tr.size))
-            cols.append(ng + 3 * tr + j)
-            vals.append(d)
-        row += tr.size
-        rows.append(row + np.arange(2 * no))
-        cols.append(nc + np.arange(2 * no))
-        vals.append(np.full(2 * no, 1.0 / self.offset_sd))
-        row += 2 * no
+        rest, tr = np.flatnonzero(self.rest), np.flatnonzero(self.trough)
+        Ba = np.zeros((rest.size + tr.size, 3))
+        Ba[:rest.size, 1] = -k * l3 * np.sin(ps[rest])          # ∂(L3 cos ψ)/∂ψ
+        Ba[rest.size:, 0] = k * l1 * np.cos(th[tr])             # ∂y_m/∂θ
+        Ba[rest.size:, 2] = k * l4 * np.cos(ph[tr])             # ∂y_m/∂φ
+        prior_cols = [nc + np.arange(2 * no)]
+        prior_vals = [np.full(2 * no, 1.0 / self.offset_sd)]
         for i in range(2):
             if 8 + i in self.free:
-                rows.append(np.array([row]))
-                cols.append(np.array([int(np.flatnonzero(self.free == 8 + i)[0])]))
-                vals.append(np.array([1.0 / self.k_sd[i]]))
-                row += 1
-        rows.append(row + np.arange(3 * n))
-        cols.append(ng + np.arange(3 * n))
-        vals.append(np.full(3 * n, _WEAK))
-        row += 3 * n
-        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows),
-                                                     np.concatenate(cols))),
-                             shape=(row, ng + 3 * n))
+                prior_cols.append(np.flatnonzero(self.free == 8 + i))
+                prior_vals.append(np.array([1.0 / self.k_sd[i]]))
+        return RowBlocks(Jg.reshape(2 * m, ng), Ja.reshape(2 * m, 3), np.repeat(f_idx, 2),
+                         Ba, np.concatenate([rest, tr]), np.concatenate(prior_cols),
+                         np.concatenate(prior_vals), _WEAK, ng, self.n)
+
+    def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
+        """The residuals' Jacobian as a sparse matrix (for ``least_squares``)."""
+        return self.row_blocks(x).matrix()
 
     def subset(self, frames: np.ndarray) -> _Problem:
         """The same problem on the frames ``frames`` (indices)."""
@@ -488,11 +469,25 @@ class _Problem:
         return out
 
 
-def _solve(pb: _Problem, x0: np.ndarray, max_nfev: int = 60):
-    """One robust least squares (soft-L1, scale 3 noise sd) with the sparse Jacobian."""
+#: The robust loss's scale, in noise sd: residuals beyond it count less and less.
+F_SCALE = 3.0
+SOLVERS = ("blocks", "scipy")
+#: Relative drop of the cost that ends the fits that choose the camera's level (their
+#: costs differ by tens to thousands of noise units).
+SELECTION_FTOL = 1e-6
+
+
+def _solve(pb: _Problem, x0: np.ndarray, solver: str = "blocks", ftol: float = 1e-9):
+    """One robust least squares (soft-L1, scale :data:`F_SCALE` noise sd) with the analytic
+    sparse Jacobian: "blocks" by :func:`.block_least_squares.block_least_squares` (the
+    frames' angle blocks eliminated by the Schur complement, time linear in the frames),
+    "scipy" by ``scipy.optimize.least_squares`` (trf, lsmr; the reference, ~20× slower)."""
+    if solver == "blocks":
+        return block_least_squares(pb.residuals, pb.row_blocks, x0, pb.n_global, 3,
+                                   f_scale=F_SCALE, max_iter=100, ftol=ftol)
     return least_squares(pb.residuals, x0, jac=pb.jacobian, loss="soft_l1",
-                         f_scale=3.0, x_scale="jac", method="trf", tr_solver="lsmr",
-                         max_nfev=max_nfev, xtol=1e-10, ftol=1e-10)
+                         f_scale=F_SCALE, x_scale="jac", method="trf", tr_solver="lsmr",
+                         max_nfev=100, xtol=1e-10, ftol=ftol)
 
 
 # ---------------------------------------------------------------- starting values
@@ -665,7 +660,8 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
               image_size: tuple[float, float] | None = None,
               noise_px: float | None = None, offset_prior_px: float = 0.5,
               distortion_prior_px: float = 5.0, levels: tuple[str, ...] = LEVELS,
-              selection_frames: int = 300, flag_threshold: float = 6.0) -> Calibration:
+              selection_frames: int = 300, flag_threshold: float = 6.0,
+              solver: str = "blocks") -> Calibration:
     """Fit the camera and every frame's angles to a point log (see the module doc).
 
     Parameters
@@ -692,8 +688,10 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     levels : camera models to choose from (:data:`LEVELS`).
     selection_frames : at most this many frames (evenly spread) for choosing the level.
     flag_threshold : residual (noise sd) beyond which a position is an outlier.
+    solver : "blocks" (Schur complement, fast) or "scipy" (``least_squares``, reference).
     """
     start = time.perf_counter()
+    check_choice("calibrate", "solver", solver, SOLVERS)
     obs, w, n = _prepare_points(points, weights)
     notes: list[str] = []
     all_pts = np.concatenate([v[np.isfinite(v).all(axis=1)] for v in obs.values()])
@@ -821,7 +819,8 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     fits: list[LevelFit] = []
     sols: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     sub.free = free_of(levels[-1])
-    res = _solve(sub, x_of(sub, cam0, np.zeros((5, 2)), np.zeros(0), sub.ang0))
+    res = _solve(sub, x_of(sub, cam0, np.zeros((5, 2)), np.zeros(0), sub.ang0), solver,
+                 SELECTION_FTOL)
     if noise_px is None:
         r = (sub.predicted(res.x) - sub.obs)[sub.use]
         sigma = float(np.median(np.hypot(r[:, 0], r[:, 1]))) / RAYLEIGH_MEDIAN
@@ -829,18 +828,26 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         with_sigma(pb, max(sigma, 1e-3))
     top_cam, top_off, top_fl, _ = sub.split(res.x)
     n_obs = 2 * int(sub.use.sum())
-    for level in levels:
+    worse = 0
+    for level in levels:                                         # from the simplest up
         sub.free = free_of(level)
         cam = top_cam.copy()
         if level in _FREE:                                       # the rest held at zero
             cam[_FREE[level]:] = 0.0
             cam[8:] = cam0[8:] if lens is not None else cam[8:]
         sub.cam0 = cam
-        sub.ang0 = _start_angles(sub, cam)
-        fit = _solve(sub, x_of(sub, cam, top_off, top_fl, sub.ang0))
+        if level == levels[-1]:
+            x0 = res.x
+        else:
+            sub.ang0 = _start_angles(sub, cam)
+            x0 = x_of(sub, cam, top_off, top_fl, sub.ang0)
+        fit = _solve(sub, x0, solver, SELECTION_FTOL)
         sols[level] = (fit.x, cam)
         fits.append(LevelFit(level, float(fit.cost), int(sub.free.size),
                              2.0 * float(fit.cost) + sub.free.size * np.log(n_obs)))
+        worse = worse + 1 if fits[-1].bic > _pick_level(fits).bic else 0
+        if worse == 2:                                           # two richer models no better
+            break
     best = _pick_level(fits)
     sub.free, sub.cam0 = free_of(best.level), sols[best.level][1]
     cam_best, off_best, fl_best, _ = sub.split(sols[best.level][0])
@@ -859,7 +866,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     # --- all frames at the chosen level
     pb.free, pb.cam0 = free_of(best.level), cam_best
     pb.ang0 = _start_angles(pb, cam_best)
-    final = _solve(pb, x_of(pb, cam_best, off_best, fl_best, pb.ang0))
+    final = _solve(pb, x_of(pb, cam_best, off_best, fl_best, pb.ang0), solver)
     U = pb.predicted(final.x)
     observed = {name: np.where(pb.use[p][:, None], pb.obs[p], np.nan)
                 for p, name in enumerate(POINTS) if name in obs}
@@ -874,14 +881,16 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
                 pb.use[p] &= ~gaps[name]
         if noise_px is None:
             with_sigma(pb, max(sigma, 1e-3))
-        final = _solve(pb, final.x)
+        final = _solve(pb, final.x, solver)
         U = pb.predicted(final.x)
     cam, off, fl, ang = pb.split(final.x)
     r = (U - pb.obs)[pb.use]
     if noise_px is None:
         sigma = float(np.median(np.hypot(r[:, 0], r[:, 1]))) / RAYLEIGH_MEDIAN
     # --- uncertainty: Gauss–Newton covariance, split by the Schur complement
-    sd_frame, sd_cal, sd_global = _angle_sd(final.jac, pb.n_global, n, sigma / pb.sigma)
+    blocks = (final.normal if hasattr(final, "normal") else
+              normal_blocks(final.jac, pb.n_global, n, 3))
+    sd_frame, sd_cal, sd_global = _angle_sd(blocks, sigma / pb.sigma)
     has = _angle_has_data(pb)
     for j in range(3):
         ang[:, j] = _branch(np.where(has[:, j], ang[:, j], np.nan), BRANCH_START[j])
@@ -936,27 +945,19 @@ def _angle_has_data(pb: _Problem) -> np.ndarray:
     return np.column_stack([th, ps, ph])
 
 
-def _angle_sd(jac: sp.spmatrix, ng: int, n: int, rescale: float
+def _angle_sd(blocks: tuple[np.ndarray, np.ndarray, np.ndarray], rescale: float
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sd (n, 3) of each frame's angles (its own part and the part the global parameters
-    carry), and of the global parameters (ng,), from ``JᵀJ`` (residuals in noise units,
-    times ``rescale``): ``C_g = (U − W V⁻¹ Wᵀ)⁻¹``, ``C_f = V_f⁻¹ + V_f⁻¹ W_fᵀ C_g W_f V_f⁻¹``
-    with ``U``, ``W``, ``V`` the global, cross and block-diagonal angle parts."""
-    J = sp.csr_matrix(jac)
-    JtJ = (J.T @ J).tocsr()
-    U = JtJ[:ng, :ng].toarray()
-    W = JtJ[:ng, ng:].toarray().reshape(ng, n, 3)                 # (ng, n, 3)
-    A = JtJ[ng:, ng:]
-    V = np.zeros((n, 3, 3))
-    for i in range(3):
-        for j in range(3):
-            d = A.diagonal(j - i)                                 # entries (m, m + j − i)
-            V[:, i, j] = d[3 * np.arange(n) + min(i, j)]
+    carry), and of the global parameters (ng,), from the normal blocks ``U``, ``W``, ``V``
+    of ``JᵀJ`` (residuals in noise units, times ``rescale``): ``C_g = (U − W V⁻¹ Wᵀ)⁻¹``,
+    ``C_f = V_f⁻¹ + V_f⁻¹ W_fᵀ C_g W_f V_f⁻¹``."""
+    U, W, V = blocks
+    ng = U.shape[0]
     Vinv = np.linalg.inv(V)                                       # V_f⁻¹
-    WV = np.einsum("gfi,fij->gfj", W, Vinv)                       # W_f V_f⁻¹
-    S = U - np.einsum("gfj,hfj->gh", WV, W)                       # Schur complement
+    WV = W @ Vinv                                                 # W_f V_f⁻¹ (n, ng, 3)
+    S = U - np.einsum("fgj,fhj->gh", WV, W)                       # Schur complement
     Cg = np.linalg.pinv(S) if ng else np.zeros((0, 0))
-    cal = np.einsum("gfi,gh,hfi->fi", WV, Cg, WV)                 # diag of V⁻¹WᵀC_gWV⁻¹
+    cal = np.einsum("fgi,gh,fhi->fi", WV, Cg, WV)                 # diag of V⁻¹WᵀC_gWV⁻¹
     own = np.einsum("fii->fi", Vinv)
     r2 = rescale * rescale
     return (np.sqrt(np.maximum(own, 0) * r2), np.sqrt(np.maximum(cal, 0) * r2),
