@@ -822,8 +822,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     res = _solve(sub, x_of(sub, cam0, np.zeros((5, 2)), np.zeros(0), sub.ang0), solver,
                  SELECTION_FTOL)
     if noise_px is None:
-        r = (sub.predicted(res.x) - sub.obs)[sub.use]
-        sigma = float(np.median(np.hypot(r[:, 0], r[:, 1]))) / RAYLEIGH_MEDIAN
+        sigma = _noise_sd(sub, res.x)
         with_sigma(sub, max(sigma, 1e-3))
         with_sigma(pb, max(sigma, 1e-3))
     top_cam, top_off, top_fl, _ = sub.split(res.x)
@@ -871,9 +870,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     observed = {name: np.where(pb.use[p][:, None], pb.obs[p], np.nan)
                 for p, name in enumerate(POINTS) if name in obs}
     predicted = {name: U[p] for p, name in enumerate(POINTS) if name in obs}
-    r = (U - pb.obs)[pb.use]
-    sigma = (noise_px if noise_px is not None else
-             float(np.median(np.hypot(r[:, 0], r[:, 1]))) / RAYLEIGH_MEDIAN)
+    sigma = noise_px if noise_px is not None else _noise_sd(pb, final.x)
     flagged, gaps = flag_tracks(observed, predicted, sigma, threshold=flag_threshold)
     if flagged:
         for p, name in enumerate(POINTS):
@@ -884,9 +881,8 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         final = _solve(pb, final.x, solver)
         U = pb.predicted(final.x)
     cam, off, fl, ang = pb.split(final.x)
-    r = (U - pb.obs)[pb.use]
     if noise_px is None:
-        sigma = float(np.median(np.hypot(r[:, 0], r[:, 1]))) / RAYLEIGH_MEDIAN
+        sigma = _noise_sd(pb, final.x)
     # --- uncertainty: Gauss–Newton covariance, split by the Schur complement
     blocks = (final.normal if hasattr(final, "normal") else
               normal_blocks(final.jac, pb.n_global, n, 3))
@@ -934,6 +930,18 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         notes=tuple(notes) + tuple(f.note for f in flagged), cost=float(final.cost),
         nfev=int(final.nfev), success=bool(final.success), message=str(final.message),
         seconds=time.perf_counter() - start)
+
+
+def _noise_sd(pb: _Problem, x: np.ndarray) -> float:
+    """The tracker's noise sd per coordinate (px), robustly from the fit's residuals: the
+    median residual distance over the Rayleigh median √(2 ln 2), scaled up by
+    √(N / (N − p)) for the p parameters fitted to the N coordinates (each frame's angles
+    take up part of its noise)."""
+    r = (pb.predicted(x) - pb.obs)[pb.use]
+    n_obs = r.size
+    n_par = pb.n_global + int(_angle_has_data(pb).sum())
+    raw = float(np.median(np.hypot(r[:, 0], r[:, 1]))) / RAYLEIGH_MEDIAN
+    return max(raw * np.sqrt(n_obs / max(n_obs - n_par, 1)), 1e-3)
 
 
 def _angle_has_data(pb: _Problem) -> np.ndarray:
