@@ -275,3 +275,32 @@ def test_block_solver_agrees_with_scipy_least_squares(horsdal):
     for a in ("theta", "psi", "phi"):
         diff = np.degrees(np.nanmax(np.abs(getattr(fast, a) - getattr(ref, a))))
         assert diff < 1e-3
+
+
+def test_fixed_counterweight_engine(backyard):
+    """A counterweight rigid on the beam: ψ = θ + offset, no plumb; the angles still come."""
+    data = {"engine": {"L1": 2.0, "L2": 0.5, "L_CM": 0.6, "L3": 0.6, "L4": 1.8, "m_b": 15.0,
+                       "M": 100.0, "m": 1.0, "counterweight": "fixed"},
+            "start": {"theta_deg": -45.0, "psi_deg": -90.0, "phi_deg": -180.0},
+            "release": {"velocity_angle_deg": 45.0}, "environment": {"g": 9.81}}
+    scene = type(backyard).from_dict(data, source="fixed")
+    track = simulated_plane_track(scene, 240.0, rest=0.2)
+    cam = camera_from_pose(2500.0, SIZE, 12.0, (0.0, 1.8), pitch=np.radians(10.0))
+    pts = film(track, cam, SIZE, 0.5, np.random.default_rng(8))
+    c = calibrate(pts, scene.engine, H=scene.start.H, image_size=SIZE)
+    raw = raw_angles(pts)
+    assert c.at_rest.any() and "plumb counterweight at rest: 0 frames" in c.fitted
+    assert rms_deg(c.theta, track.theta) < rms_deg(raw["theta"], track.theta) / 2
+    assert rms_deg(c.psi, track.psi) < rms_deg(raw["psi"], track.psi) / 2
+
+
+def test_tracker_confidence_weights_silence_a_bad_stretch(horsdal, shot):
+    pts = film(shot, tilted_camera(), SIZE, 0.5, np.random.default_rng(9))
+    bad = slice(200, 230)
+    pts["spigot"][bad] += 40.0                         # a swapped stretch the tracker doubted
+    weights = {"spigot": np.ones(shot.t.size)}
+    weights["spigot"][bad] = 0.0
+    c = calibrate(pts, horsdal.engine, H=horsdal.start.H, image_size=SIZE, weights=weights)
+    assert not c.flagged
+    assert np.isnan(c.residuals["spigot"][bad]).all()
+    assert rms_deg(c.theta, shot.theta) < 0.15

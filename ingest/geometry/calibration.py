@@ -735,8 +735,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     trough_mask = (np.asarray(in_trough, bool) if in_trough is not None
                    else (rest.copy() if trough and "projectile" in obs else np.zeros(n, bool)))
     fixed_psi = engine.counterweight_offset
-    if fixed_psi is not None:
-        rest = np.zeros(n, bool)  # a rigid counterweight does not hang plumb
+    plumb = rest if fixed_psi is None else np.zeros(n, bool)  # a rigid one does not hang
 
     # --- the problem's arrays
     O = np.zeros((5, n, 2))
@@ -773,7 +772,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         cam0[8:] = k1k2
     if levels[-1] in _FREE:
         cam0[_FREE[levels[-1]]:8] = 0.0
-    vertical = rest.any() or trough_mask.any() or flight.any()
+    vertical = plumb.any() or trough_mask.any() or flight.any()
     if not vertical:
         notes.append("no rest, trough or flight frames: the image's vertical is taken as "
                      "the engine's")
@@ -793,7 +792,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     offset_points = tuple(p for p in range(1, 5) if use[p].any())
     pb = _Problem(obs=O, use=use, wt=wt / (noise_px or 1.0),
                   lengths=(1.0, engine.L2 / L, engine.L3 / L, engine.L4 / L), h=H / L,
-                  centre=centre, radius=radius, rest=rest & (use[3] if use[3].any() else rest),
+                  centre=centre, radius=radius, rest=plumb & use[3],
                   trough=trough_mask, sling=sling, flight=flight, tau=tau,
                   g=(g or 0.0) / L, cam0=cam0, free=free_of(levels[-1]),
                   offset_points=offset_points, sigma=noise_px or 1.0,
@@ -925,7 +924,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         theta_sd_calibration=sd_cal[:, 0], psi_sd_calibration=sd_cal[:, 1],
         phi_sd_calibration=sd_cal[:, 2],
         residuals=residuals, noise_px=float(sigma), flagged=flagged,
-        gaps={k: v for k, v in gaps.items()}, at_rest=pb.rest.copy(),
+        gaps={k: v for k, v in gaps.items()}, at_rest=rest.copy(),
         in_trough=pb.trough.copy(), in_sling=sling.copy(), fitted=tuple(fitted),
         notes=tuple(notes) + tuple(f.note for f in flagged), cost=float(final.cost),
         nfev=int(final.nfev), success=bool(final.success), message=str(final.message),
