@@ -887,6 +887,9 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
               normal_blocks(final.jac, pb.n_global, n, 3))
     sd_frame, sd_cal, sd_global = _angle_sd(blocks, sigma / pb.sigma)
     has = _angle_has_data(pb)
+    if fixed_psi is not None:                                    # ψ = θ + offset (rigid)
+        ang[:, 1] = ang[:, 0] + fixed_psi
+        sd_frame[:, 1], sd_cal[:, 1] = sd_frame[:, 0], sd_cal[:, 0]
     for j in range(3):
         ang[:, j] = _branch(np.where(has[:, j], ang[:, j], np.nan), BRANCH_START[j])
     sd_frame = np.where(has, sd_frame, np.nan)
