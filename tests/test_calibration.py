@@ -304,3 +304,15 @@ def test_tracker_confidence_weights_silence_a_bad_stretch(horsdal, shot):
     assert not c.flagged
     assert np.isnan(c.residuals["spigot"][bad]).all()
     assert rms_deg(c.theta, shot.theta) < 0.15
+
+
+def test_users_lens_calibration_fixes_the_distortion(horsdal, shot):
+    """An OpenCV camera matrix and distortion: the lens is held, the plane's map fitted."""
+    lens = intrinsics_from_opencv([[2500.0, 0, 960.0], [0, 2500.0, 540.0], [0, 0, 1]],
+                                  [-0.03, 0.0])
+    pts = film(shot, tilted_camera(), SIZE, 0.5, np.random.default_rng(10), OFFSETS)
+    c = calibrate(pts, horsdal.engine, H=horsdal.start.H, camera=lens)
+    assert c.level == "projective" and c.parameters["k1"] == pytest.approx(-0.03)
+    assert c.k1_focal == pytest.approx(-0.03)
+    assert np.degrees(c.pose.pitch) == pytest.approx(10.0, abs=0.5)
+    assert rms_deg(c.theta, shot.theta) < 0.15
