@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -105,16 +106,22 @@ class BlockSolution:
     """Result of :func:`block_least_squares`, named as scipy's ``OptimizeResult``: ``x``,
     ``cost`` (½ f² Σ ρ), ``jac`` (the Jacobian at ``x`` with rows scaled by √ρ', so that
     ``JᵀJ`` is the Gauss–Newton Hessian of the cost), ``nfev``, ``njev``, ``success``,
-    ``message``, ``normal`` (U, W, V of that ``JᵀJ``)."""
+    ``message``, ``normal`` (U, W, V of that ``JᵀJ``; ``jac`` is built from the blocks on
+    first use)."""
 
     x: np.ndarray
     cost: float
-    jac: sp.csr_matrix
     normal: tuple[np.ndarray, np.ndarray, np.ndarray]
     nfev: int
     njev: int
     success: bool
     message: str
+    blocks: RowBlocks
+    weights: np.ndarray
+
+    @cached_property
+    def jac(self) -> sp.csr_matrix:
+        return (sp.diags(self.weights) @ self.blocks.matrix()).tocsr()
 
 
 def soft_l1_cost(r: np.ndarray, f_scale: float) -> float:
@@ -203,5 +210,4 @@ def block_least_squares(fun: Callable[[np.ndarray], np.ndarray],
     w = 1.0 / np.sqrt(np.sqrt(1.0 + (r / f_scale) ** 2))
     rb = blocks(x)
     U, W, V, _, _ = rb.normal(w, r)
-    jac = (sp.diags(w) @ rb.matrix()).tocsr()
-    return BlockSolution(x, cost, jac, (U, W, V), nfev, njev + 1, success, message)
+    return BlockSolution(x, cost, (U, W, V), nfev, njev + 1, success, message, rb, w)

@@ -484,19 +484,27 @@ SOLVERS = ("blocks", "scipy")
 #: Relative drop of the cost that ends the fits that choose the camera's level (their
 #: costs differ by tens to thousands of noise units).
 SELECTION_FTOL = 1e-6
+#: ... and the fit of all frames (a drop of 1e-7 of a cost of 10⁴ noise units moves no
+#: angle by a thousandth of its sd).
+FINAL_FTOL = 1e-7
+#: Iterations of each level's fit in the choice: enough for the models that fit (they
+#: converge in 5–10); the others' costs are far off anyway.
+SELECTION_ITERATIONS = 10
 
 
-def _solve(pb: _Problem, x0: np.ndarray, solver: str = "blocks", ftol: float = 1e-9):
+def _solve(pb: _Problem, x0: np.ndarray, solver: str = "blocks", ftol: float | None = None,
+           max_iter: int = 100):
     """One robust least squares (soft-L1, scale :data:`F_SCALE` noise sd) with the analytic
     sparse Jacobian: "blocks" by :func:`.block_least_squares.block_least_squares` (the
     frames' angle blocks eliminated by the Schur complement, time linear in the frames),
     "scipy" by ``scipy.optimize.least_squares`` (trf, lsmr; the reference, ~20× slower)."""
+    ftol = FINAL_FTOL if ftol is None else ftol
     if solver == "blocks":
         return block_least_squares(pb.residuals, pb.row_blocks, x0, pb.n_global, 3,
-                                   f_scale=F_SCALE, max_iter=100, ftol=ftol)
+                                   f_scale=F_SCALE, max_iter=max_iter, ftol=ftol)
     return least_squares(pb.residuals, x0, jac=pb.jacobian, loss="soft_l1",
                          f_scale=F_SCALE, x_scale="jac", method="trf", tr_solver="lsmr",
-                         max_nfev=100, xtol=1e-10, ftol=ftol)
+                         max_nfev=max_iter, xtol=1e-10, ftol=ftol)
 
 
 # ---------------------------------------------------------------- starting values
@@ -851,7 +859,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         else:
             sub.ang0 = _start_angles(sub, cam)
             x0 = x_of(sub, cam, top_off, top_fl, sub.ang0)
-        fit = _solve(sub, x0, solver, SELECTION_FTOL)
+        fit = _solve(sub, x0, solver, SELECTION_FTOL, SELECTION_ITERATIONS)
         sols[level] = (fit.x, cam)
         fits.append(LevelFit(level, float(fit.cost), int(sub.free.size),
                              2.0 * per_log * float(fit.cost)
