@@ -316,3 +316,18 @@ def test_users_lens_calibration_fixes_the_distortion(horsdal, shot):
     assert c.k1_focal == pytest.approx(-0.03)
     assert np.degrees(c.pose.pitch) == pytest.approx(10.0, abs=0.5)
     assert rms_deg(c.theta, shot.theta) < 0.15
+
+
+def test_swapped_and_jumped_points_are_named(horsdal, shot):
+    """Spigot and projectile swapped for six frames, the counterweight jumping for three:
+    each wrong point is named with its frames, and only it."""
+    pts = film(shot, tilted_camera(), SIZE, 0.5, np.random.default_rng(3))
+    good = {k: v.copy() for k, v in pts.items()}
+    pts["spigot"][250:256], pts["projectile"][250:256] = (good["projectile"][250:256],
+                                                          good["spigot"][250:256])
+    pts["counterweight"][100:103] += [15.0, -10.0]
+    c = calibrate(pts, horsdal.engine, H=horsdal.start.H, image_size=SIZE)
+    runs = sorted((f.point, f.first, f.last, f.kind) for f in c.flagged)
+    assert runs == [("counterweight", 100, 102, "outlier"), ("projectile", 250, 255, "outlier"),
+                    ("spigot", 250, 255, "outlier")]
+    assert rms_deg(c.theta, shot.theta) < 0.15

@@ -55,7 +55,7 @@ from .block_least_squares import RowBlocks, block_least_squares, normal_blocks
 from .camera import Camera, CameraPose, Intrinsics, apply_homography, camera_pose, undistort
 from .conic_start import circle_homography
 from .engine_points import POINTS
-from .track_flags import RAYLEIGH_MEDIAN, FlaggedTrack, flag_tracks
+from .track_flags import RAYLEIGH_MEDIAN, FlaggedTrack, flag_tracks, outlier_limit
 
 __all__ = ["LEVELS", "ALL_LEVELS", "CAMERA_PARAMETERS", "LevelFit", "Calibration", "calibrate",
            "angles_from_calibration"]
@@ -487,6 +487,8 @@ SELECTION_FTOL = 1e-6
 #: ... and the fit of all frames (a drop of 1e-7 of a cost of 10⁴ noise units moves no
 #: angle by a thousandth of its sd).
 FINAL_FTOL = 1e-7
+#: Rounds of flagging outliers and refitting (each takes the worst point of a frame).
+FLAG_ROUNDS = 3
 #: Iterations of each level's fit in the choice: enough for the models that fit (they
 #: converge in 5–10); the others' costs are far off anyway.
 SELECTION_ITERATIONS = 10
@@ -603,6 +605,15 @@ def _rest_frames(track: np.ndarray, frames: int = 5, z: float = 6.0) -> np.ndarr
     rest[:max(first - 1, 0)] = True
     rest &= ok
     return rest if rest.sum() >= frames else np.zeros(n, bool)
+
+
+def _circle_centre(track: np.ndarray) -> np.ndarray:
+    """Centre (2,) px of the circle through a track (n, 2): linear least squares of
+    ``x² + y² + D x + E y + F = 0`` (Kåsa), centre ``(−D/2, −E/2)``."""
+    q = track[np.isfinite(track).all(axis=1)]
+    A = np.column_stack([q[:, 0], q[:, 1], np.ones(len(q))])
+    D, E, _ = np.linalg.lstsq(A, -(q[:, 0] ** 2 + q[:, 1] ** 2), rcond=None)[0]
+    return np.array([-D / 2, -E / 2])
 
 
 def _sling_frames(obs: dict[str, np.ndarray], pivot: np.ndarray) -> np.ndarray:
@@ -734,13 +745,17 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
 
     pivot_img = (np.nanmedian(obs["pivot"], axis=0) if "pivot" in obs
                  and np.isfinite(obs["pivot"]).any() else None)
+    if pivot_img is None:                                        # the spigot's circle's centre
+        pivot_img = _circle_centre(obs["spigot" if "spigot" in obs else "hinge"])
+        notes.append("the pivot is not tracked: its pixel starts at the centre of the "
+                     "spigot's (or hinge's) circle")
     # --- which frames get which constraint
     moving = next(obs[k] for k in ("spigot", "projectile", "counterweight", "hinge")
                   if k in obs)
     rest = (np.asarray(at_rest, bool) if at_rest is not None else _rest_frames(moving))
     if "projectile" in obs:
         sling = (np.asarray(in_sling, bool) if in_sling is not None else
-                 _sling_frames(obs, pivot_img if pivot_img is not None else 0.5 * (lo + hi)))
+                 _sling_frames(obs, pivot_img))
     else:
         sling = np.ones(n, bool)
     flight = ~sling & (g is not None) & (t is not None)
@@ -779,7 +794,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         arc = obs[arc_name][use[POINTS.index(arc_name)]]
         k1k2 = (lens.k1, lens.k2) if lens else (0.0, 0.0)
         arc = undistort(arc, *k1k2, tuple(centre), radius)
-        pc = pivot_img if pivot_img is not None else np.median(arc, axis=0)
+        pc = pivot_img
         Hc = circle_homography(arc, pc)
         if Hc is not None:
             cam0 = _parameters_of(Hc @ np.diag([1 / arc_len, 1 / arc_len, 1.0]))
@@ -886,20 +901,31 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     pb.free, pb.cam0 = free_of(best.level), cam_best
     pb.ang0 = _start_angles(pb, cam_best)
     final = _solve(pb, x_of(pb, cam_best, off_best, fl_best, pb.ang0), solver)
-    U = pb.predicted(final.x)
-    observed = {name: np.where(pb.use[p][:, None], pb.obs[p], np.nan)
-                for p, name in enumerate(POINTS) if name in obs}
-    predicted = {name: U[p] for p, name in enumerate(POINTS) if name in obs}
     sigma = noise_px if noise_px is not None else _noise_sd(pb, final.x)
-    flagged, gaps = flag_tracks(observed, predicted, sigma, threshold=flag_threshold)
-    if flagged:
+    flagged: tuple[FlaggedTrack, ...] = ()
+    gaps = {name: np.zeros(n, bool) for name in POINTS if name in obs}
+    for _ in range(FLAG_ROUNDS):          # the worst point of a frame first, then look again
+        U = pb.predicted(final.x)
+        observed = {name: np.where(pb.use[p][:, None], pb.obs[p], np.nan)
+                    for p, name in enumerate(POINTS) if name in obs}
+        predicted = {name: U[p] for p, name in enumerate(POINTS) if name in obs}
+        culprits = _culprits(pb, final.x, outlier_limit(sigma, flag_threshold), solver)
+        found, new = flag_tracks(observed, predicted, sigma, threshold=flag_threshold,
+                                 culprits={name: culprits[p] for p, name in enumerate(POINTS)
+                                           if name in obs})
+        if not found:
+            break
+        flagged += found
         for p, name in enumerate(POINTS):
-            if name in gaps:
-                pb.use[p] &= ~gaps[name]
+            if name in new:
+                pb.use[p] &= ~new[name]
+                gaps[name] |= new[name]
         if noise_px is None:
             with_sigma(pb, max(sigma, 1e-3))
         final = _solve(pb, final.x, solver)
-        U = pb.predicted(final.x)
+        if noise_px is None:
+            sigma = _noise_sd(pb, final.x)
+    U = pb.predicted(final.x)
     cam, off, fl, ang = pb.split(final.x)
     if noise_px is None:
         sigma = _noise_sd(pb, final.x)
@@ -953,6 +979,40 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         notes=tuple(notes) + tuple(f.note for f in flagged), cost=float(final.cost),
         nfev=int(final.nfev), success=bool(final.success), message=str(final.message),
         seconds=time.perf_counter() - start)
+
+
+def _culprits(pb: _Problem, x: np.ndarray, limit: float, solver: str) -> np.ndarray:
+    """(5, n) bool: in each frame with a residual beyond ``limit`` px, the point whose
+    leaving out lets the others fit best (the frame's angles refitted with the camera,
+    offsets and flight held): one wrong point drags the fitted frame and its neighbours'
+    residuals with it, so the largest residual need not be the wrong point's."""
+    U = pb.predicted(x)
+    dist = np.where(pb.use, np.hypot(*(U - pb.obs).transpose(2, 0, 1)), 0.0)   # (5, n) px
+    frames = np.flatnonzero((dist > limit).any(axis=0))
+    out = np.zeros(pb.use.shape, bool)
+    if frames.size == 0:
+        return out
+    cam, off, fl, ang = pb.split(x)
+    sub = pb.subset(frames)
+    sub.obs = sub.obs - off[:, None, :]                          # offsets held
+    sub.offset_points, sub.free, sub.cam0 = (), np.zeros(0, int), cam
+    sub.flight = np.zeros(frames.size, bool)                     # the parabola held: leave
+    sub.use[4] &= pb.sling[frames]                               # flying stones out
+    worst_left = np.full((5, frames.size), np.inf)
+    for p in range(5):
+        here = sub.use[p].copy()
+        if not here.any():
+            continue
+        trial = sub.subset(np.arange(frames.size))
+        trial.use = sub.use.copy()
+        trial.use[p] = False
+        sol = _solve(trial, ang[frames].ravel(), solver)
+        V = trial.predicted(sol.x)
+        left = np.where(trial.use, np.hypot(*(V - trial.obs).transpose(2, 0, 1)), 0.0)
+        worst_left[p] = np.where(here, left.max(axis=0), np.inf)
+    blame = np.argmin(worst_left, axis=0)                        # the best point to leave out
+    out[blame, frames] = True
+    return out & pb.use
 
 
 def _noise_sd(pb: _Problem, x: np.ndarray) -> float:
