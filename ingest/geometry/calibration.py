@@ -988,8 +988,10 @@ def _culprits(pb: _Problem, x: np.ndarray, limit: float, solver: str) -> np.ndar
     residuals with it, so the largest residual need not be the wrong point's."""
     U = pb.predicted(x)
     dist = np.where(pb.use, np.hypot(*(U - pb.obs).transpose(2, 0, 1)), 0.0)   # (5, n) px
-    frames = np.flatnonzero((dist > limit).any(axis=0))
     out = np.zeros(pb.use.shape, bool)
+    out[4] = (dist[4] > limit) & pb.flight                       # a stone off its parabola
+    dist[4] = np.where(pb.flight, 0.0, dist[4])
+    frames = np.flatnonzero((dist > limit).any(axis=0))
     if frames.size == 0:
         return out
     cam, off, fl, ang = pb.split(x)
