@@ -9,6 +9,7 @@ from scipy.optimize._numdiff import approx_derivative
 
 import trebuchet.ingest.geometry.calibration as cal_mod
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.geometry import plane_map
 from trebuchet.ingest.geometry.calibration import angles_from_calibration, calibrate
 from trebuchet.ingest.geometry.camera import (
     apply_homography,
@@ -97,12 +98,12 @@ def test_image_jacobian_matches_finite_differences():
     cam = np.array([900.0, -600.0, 400.0, 0.01, 0.02, -0.01, 0.03, -0.05, -0.02, 0.01])
     X = np.random.default_rng(1).uniform(-1.5, 1.5, (7, 2))
     centre, radius = np.array([960.0, -540.0]), 1920.0
-    d_plane, d_cam = cal_mod.image_jacobian(cam, X, centre, radius)
+    d_plane, d_cam = plane_map.image_jacobian(cam, X, centre, radius)
     for i in range(7):
-        num = approx_derivative(lambda z, i=i: cal_mod.image_of(cam, z, centre, radius),
+        num = approx_derivative(lambda z, i=i: plane_map.image_of(cam, z, centre, radius),
                                 X[i], method="3-point")
         assert np.abs(d_plane[i] - num).max() < 1e-6 * np.abs(num).max()
-        numc = approx_derivative(lambda c, i=i: cal_mod.image_of(c, X[i], centre, radius), cam,
+        numc = approx_derivative(lambda c, i=i: plane_map.image_of(c, X[i], centre, radius), cam,
                                  method="3-point")
         assert np.abs(d_cam[i] - numc).max() < 1e-5 * np.abs(numc).max()
 

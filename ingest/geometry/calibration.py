@@ -3,9 +3,9 @@
 A point log gives, frame by frame, the pixels of the pivot, spigot, hinge, counterweight
 and projectile. :func:`calibrate` fits, in one robust least squares over the whole log
 (soft-L1 loss, analytic sparse Jacobian; the frames' angles eliminated by the Schur
-complement, :mod:`.block_least_squares`, or ``scipy.optimize.least_squares``), the map from the
-engine's plane to the image together with every frame's angles θ, ψ, φ and a constant
-pixel offset of each marker. The scene makes it well posed:
+complement, :mod:`.block_least_squares`, or ``scipy.optimize.least_squares``), the map
+from the engine's plane to the image together with every frame's angles θ, ψ, φ and a
+constant pixel offset of each marker. The scene makes it well posed:
 
 * the pivot is fixed; spigot, pivot and hinge lie on one straight beam at L1 and L2; the
   counterweight is L3 from the hinge; the projectile L4 from the spigot while in the sling
@@ -15,22 +15,18 @@ pixel offset of each marker. The scene makes it well posed:
   along −y;
 * the start: the ellipse the spigot traces about the pivot (:mod:`.conic_start`).
 
-The map (:class:`CameraModel`), from plane coordinates ``X̃ = (r − r_P)/L1`` (pivot at
-the origin, units of the beam's long arm) to pixels::
-
-    w = 1 + p1 x̃ + p2 ỹ                                      projective part (tilt)
-    a = [[1 + α, β], [β, 1 − α]] X̃ / w                         affine part (aspect, shear)
-    u = t + s R(turn) a                                       similarity (vertical, scale)
-    d = c + (u − c)(1 + k1 ρ² + k2 ρ⁴),  ρ = |u − c|/R        radial distortion
+The map from the plane to the image and its levels are in :mod:`.plane_map`; the
+residuals, their Jacobian and the starting values in :mod:`.calibration_problem`; which
+frames are at rest, in the trough, in the sling, in :mod:`.shot_frames`.
 
 Perspective and distortion are kept only where the data show them: the levels of
 :data:`LEVELS` are fitted on a subsample of the frames and the one with the least
 Bayesian information criterion ``2 cost + k ln N`` of the whole log (cost from residuals
 in units of the noise, the subsample's scaled up to the log's N coordinates: more frames
 show finer effects) is fitted on all frames. Marker offsets have a Gaussian prior
-(``offset_prior_px``):
-without them a constant sub-pixel click error turns into a false tilt. k1 and k2 have a
-prior that bounds the distortion at the edge of the data (``distortion_prior_px``).
+(``offset_prior_px``): without them a constant sub-pixel click error turns into a false
+tilt. k1 and k2 have a prior that bounds the distortion at the edge of the data
+(``distortion_prior_px``).
 
 Outliers and stuck tracks (:mod:`.track_flags`) become gaps and the fit is repeated
 without them. Each frame's angles get their sd from the fit's Gauss–Newton covariance:
@@ -42,44 +38,43 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.optimize import least_squares
 
 from trebuchet.errors import TrebuchetInputError, check_choice
 from trebuchet.model.scene import Engine
 
-from .block_least_squares import RowBlocks, block_least_squares, normal_blocks
+from .block_least_squares import block_least_squares, normal_blocks
+from .calibration_problem import (
+    ANGLES,
+    BRANCH_START,
+    CalibrationProblem,
+    angles_with_data,
+    branch,
+    noise_sd,
+    start_angles,
+    start_flight,
+)
 from .camera import Camera, CameraPose, Intrinsics, apply_homography, camera_pose, undistort
 from .conic_start import circle_homography
 from .engine_points import POINTS
-from .track_flags import RAYLEIGH_MEDIAN, FlaggedTrack, flag_tracks, outlier_limit
+from .plane_map import (
+    ALL_LEVELS,
+    CAMERA_PARAMETERS,
+    FREE_PARAMETERS,
+    LEVELS,
+    camera_of,
+    normalised_homography,
+    parameters_of,
+)
+from .shot_frames import circle_centre, rest_frames, sling_frames, trough_frames
+from .track_flags import FlaggedTrack, flag_tracks, outlier_limit
 
 __all__ = ["LEVELS", "ALL_LEVELS", "CAMERA_PARAMETERS", "LevelFit", "Calibration", "calibrate",
            "angles_from_calibration"]
 
-#: Camera models, from the simplest up: "level" a fronto-parallel camera with a perfect lens
-#: whose rows are horizontal (today's atan2 of the pixels); "similarity" the same turned
-#: about its optical axis; "affine" adds aspect and shear; "projective" the tilt; then k1, k2.
-ALL_LEVELS = ("level", "similarity", "affine", "projective", "projective+k1",
-              "projective+k1+k2")
-#: The levels chosen from by default. Perspective comes with k1 (held by its prior): the
-#: pixels' cost hardly tells k1 (weakly identified) but the vertical found depends on it;
-#: measured on the paper's engine filmed tilted with k1 = −0.03, the plain projective map
-#: left θ biased by up to 3 of its calibration sd on 2000 frames, with k1 under 1.7.
-LEVELS = ("level", "similarity", "affine", "projective+k1", "projective+k1+k2")
-#: The camera's parameters: translation (px), scale (px per L1), turn (rad), α, β, p1, p2
-#: (per L1), k1, k2 (per radius R).
-CAMERA_PARAMETERS = ("tx", "ty", "scale", "turn", "alpha", "beta", "p1", "p2", "k1", "k2")
-_FREE = {"level": 3, "similarity": 4, "affine": 6, "projective": 8, "projective+k1": 9,
-         "projective+k1+k2": 10}
-#: Branch of each angle's first value: [-π, π) for θ and ψ, [-3π/2, π/2) for φ (the
-#: sling starts near −180°), as in :mod:`trebuchet.ingest.angles_from_points`.
-BRANCH_START = (-np.pi, -np.pi, -1.5 * np.pi)
-ANGLES = ("theta", "psi", "phi")
-_WEAK = 1e-3  # weight of the prior that keeps an angle without data at its start (1/rad)
 
 
 @dataclass(frozen=True)
@@ -151,332 +146,6 @@ class Calibration:
         return {"theta": self.theta, "psi": self.psi, "phi": self.phi}
 
 
-# ---------------------------------------------------------------- the map plane → image
-
-def image_of(cam: np.ndarray, X: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
-    """Pixels (…, 2) of plane points ``X`` (…, 2) in units of L1 about the pivot, for the
-    camera parameters ``cam`` (:data:`CAMERA_PARAMETERS`); see the module doc."""
-    tx, ty, s, turn, al, be, p1, p2, k1, k2 = cam
-    x, y = X[..., 0], X[..., 1]
-    w = 1.0 + p1 * x + p2 * y                                    # projective part
-    xp, yp = x / w, y / w
-    ax = (1.0 + al) * xp + be * yp                               # affine part
-    ay = be * xp + (1.0 - al) * yp
-    c, sn = s * np.cos(turn), s * np.sin(turn)
-    u = tx + c * ax - sn * ay                                    # u = t + s R(turn) a
-    v = ty + sn * ax + c * ay
-    if k1 != 0.0 or k2 != 0.0:
-        du, dv = (u - centre[0]) / radius, (v - centre[1]) / radius
-        rho2 = du * du + dv * dv                                 # ρ²
-        gain = rho2 * (k1 + k2 * rho2)                           # k1 ρ² + k2 ρ⁴
-        u = u + (u - centre[0]) * gain
-        v = v + (v - centre[1]) * gain
-    return np.stack([u, v], axis=-1)
-
-
-def image_jacobian(cam: np.ndarray, X: np.ndarray, centre: np.ndarray, radius: float
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Derivatives of :func:`image_of`: ``∂u/∂X̃`` (…, 2, 2) and ``∂u/∂cam`` (…, 2, 10), by
-    the chain rule through its four steps."""
-    tx, ty, s, turn, al, be, p1, p2, k1, k2 = cam
-    x, y = X[..., 0], X[..., 1]
-    w = 1.0 + p1 * x + p2 * y
-    xp, yp = x / w, y / w
-    ax = (1.0 + al) * xp + be * yp
-    ay = be * xp + (1.0 - al) * yp
-    c, sn = np.cos(turn), np.sin(turn)
-    ex, ey = c * ax - sn * ay, sn * ax + c * ay                  # R(turn) a = (u0 − t) / s
-    e_x, e_y = tx + s * ex - centre[0], ty + s * ey - centre[1]  # u0 − c
-    rho2 = (e_x * e_x + e_y * e_y) / radius ** 2
-    gain = rho2 * (k1 + k2 * rho2)                               # g = k1 ρ² + k2 ρ⁴
-    dg = 2.0 * (k1 + 2.0 * k2 * rho2) / radius ** 2              # ∂g/∂(u0 − c) = dg (u0 − c)
-    shape = x.shape
-    Dd = np.empty(shape + (2, 2))                                # ∂u/∂u0 = (1 + g) I + dg e eᵀ
-    Dd[..., 0, 0] = 1.0 + gain + dg * e_x * e_x
-    Dd[..., 0, 1] = Dd[..., 1, 0] = dg * e_x * e_y
-    Dd[..., 1, 1] = 1.0 + gain + dg * e_y * e_y
-    Rs = s * np.array([[c, -sn], [sn, c]])                       # ∂u0/∂a
-    A = np.array([[1.0 + al, be], [be, 1.0 - al]])               # ∂a/∂q
-    Dq = np.empty(shape + (2, 2))                                # ∂q/∂X̃ = (I − q pᵀ) / w
-    Dq[..., 0, 0] = (1.0 - xp * p1) / w
-    Dq[..., 0, 1] = -xp * p2 / w
-    Dq[..., 1, 0] = -yp * p1 / w
-    Dq[..., 1, 1] = (1.0 - yp * p2) / w
-    DdRs = Dd @ Rs
-    DdRsA = DdRs @ A
-    d_plane = DdRsA @ Dq
-    d_cam = np.empty(shape + (2, 10))
-    d_cam[..., :, 0] = Dd[..., :, 0]                             # t
-    d_cam[..., :, 1] = Dd[..., :, 1]
-    d_cam[..., 0, 2] = Dd[..., 0, 0] * ex + Dd[..., 0, 1] * ey   # s: ∂u0/∂s = R a
-    d_cam[..., 1, 2] = Dd[..., 1, 0] * ex + Dd[..., 1, 1] * ey
-    d_cam[..., 0, 3] = s * (-Dd[..., 0, 0] * ey + Dd[..., 0, 1] * ex)   # turn: s R⊥ a
-    d_cam[..., 1, 3] = s * (-Dd[..., 1, 0] * ey + Dd[..., 1, 1] * ex)
-    d_cam[..., :, 4] = DdRs[..., :, 0] * xp[..., None] - DdRs[..., :, 1] * yp[..., None]  # α
-    d_cam[..., :, 5] = DdRs[..., :, 0] * yp[..., None] + DdRs[..., :, 1] * xp[..., None]  # β
-    qx = -(DdRsA[..., :, 0] * xp[..., None] + DdRsA[..., :, 1] * yp[..., None])  # ∂q/∂p = −q X̃/w
-    d_cam[..., :, 6] = qx * (x / w)[..., None]
-    d_cam[..., :, 7] = qx * (y / w)[..., None]
-    d_cam[..., 0, 8], d_cam[..., 1, 8] = e_x * rho2, e_y * rho2  # ∂u/∂k1 = (u0 − c) ρ²
-    d_cam[..., 0, 9], d_cam[..., 1, 9] = e_x * rho2 ** 2, e_y * rho2 ** 2
-    return d_plane, d_cam
-
-
-def _normalised_homography(cam: np.ndarray) -> np.ndarray:
-    """``[[s R(turn) A + t pᵀ, t], [pᵀ, 1]]``: the pinhole part of ``cam`` on X̃ (units of
-    L1), since ``u = t + s R A X̃ / w`` is ``((s R A + t pᵀ) X̃ + t) / w``."""
-    tx, ty, s, turn, al, be, p1, p2 = cam[:8]
-    R = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
-    A = np.array([[1.0 + al, be], [be, 1.0 - al]])
-    Hn = np.eye(3)
-    Hn[:2, :2] = s * R @ A + np.outer([tx, ty], [p1, p2])
-    Hn[:2, 2] = tx, ty
-    Hn[2, :2] = p1, p2
-    return Hn
-
-
-def _parameters_of(Hn: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`_normalised_homography` (k1 = k2 = 0): ``Hn = [[M, t], [pᵀ, 1]]``
-    with ``M − t pᵀ = s R A``, split by the polar decomposition ``s R A = R (s A)``."""
-    Hn = Hn / Hn[2, 2]
-    t, p = Hn[:2, 2], Hn[2, :2]
-    M = Hn[:2, :2] - np.outer(t, p)                              # s R A
-    U, S, Vt = np.linalg.svd(M)
-    R = U @ Vt                                                   # rotation part
-    if np.linalg.det(R) < 0:
-        raise TrebuchetInputError("calibration: the image is a mirror image of the engine's "
-                                  "plane (is y pointing down?)")
-    sA = R.T @ M                                                 # s A, symmetric
-    s = 0.5 * np.trace(sA)
-    al, be = 0.5 * (sA[0, 0] - sA[1, 1]) / s, 0.5 * (sA[0, 1] + sA[1, 0]) / s
-    return np.array([t[0], t[1], s, np.arctan2(R[1, 0], R[0, 0]), al, be, p[0], p[1], 0, 0])
-
-
-def camera_of(cam: np.ndarray, engine: Engine, H: float, centre: np.ndarray,
-              radius: float) -> Camera:
-    """The :class:`~.camera.Camera` (plane m → px) of the parameters ``cam``:
-    ``Hm = Hn N`` with ``N`` taking metres to X̃ = (r − (0, H)) / L1."""
-    L = engine.L1
-    N = np.array([[1 / L, 0.0, 0.0], [0.0, 1 / L, -H / L], [0.0, 0.0, 1.0]])
-    Hm = _normalised_homography(cam) @ N
-    return Camera(Hm / Hm[2, 2], float(cam[8]), float(cam[9]),
-                  (float(centre[0]), float(centre[1])), float(radius))
-
-
-# ---------------------------------------------------------------- the problem
-
-@dataclass
-class _Problem:
-    """The least-squares problem on a set of frames (internal)."""
-
-    obs: np.ndarray            # (5, n, 2) px, 0 where not used
-    use: np.ndarray            # (5, n) bool: position used
-    wt: np.ndarray             # (5, n) residual weight: √confidence / σ
-    lengths: tuple[float, float, float, float]   # L1, L2, L3, L4 / L1
-    h: float                   # H / L1
-    centre: np.ndarray
-    radius: float
-    rest: np.ndarray           # (n,) bool: counterweight plumb
-    trough: np.ndarray         # (n,) bool: projectile on the trough's level
-    sling: np.ndarray          # (n,) bool: projectile in the sling or trough
-    flight: np.ndarray         # (n,) bool: projectile on the parabola
-    tau: np.ndarray            # (n,) s since the first flight frame
-    g: float                   # g / L1, 1/s²
-    cam0: np.ndarray           # (10,) camera parameters (the fixed ones stay)
-    free: np.ndarray           # indices of the free camera parameters
-    offset_points: tuple[int, ...]   # points (indices into POINTS) with an offset
-    sigma: float               # px
-    offset_sd: float           # px
-    k_sd: tuple[float, float]  # prior sd of k1, k2
-    gauge_px: float            # px per L1 for the plumb and trough residuals
-    fixed_psi: float | None    # ψ − θ of a counterweight fixed on the beam
-    ang0: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-
-    @property
-    def n(self) -> int:
-        return self.obs.shape[1]
-
-    @property
-    def n_global(self) -> int:
-        return self.free.size + 2 * len(self.offset_points) + (4 if self.flight.any() else 0)
-
-    def split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Camera (10,), offsets (5, 2), flight (4,), angles (n, 3) of the vector ``x``."""
-        cam = self.cam0.copy()
-        nc = self.free.size
-        cam[self.free] = x[:nc]
-        off = np.zeros((5, 2))
-        no = len(self.offset_points)
-        off[list(self.offset_points)] = x[nc:nc + 2 * no].reshape(no, 2)
-        nf = 4 if self.flight.any() else 0
-        fl = x[nc + 2 * no:nc + 2 * no + nf]
-        return cam, off, fl, x[self.n_global:].reshape(self.n, 3)
-
-    def plane(self, ang: np.ndarray, fl: np.ndarray) -> np.ndarray:
-        """The five points (5, n, 2) in units of L1 about the pivot (:mod:`.engine_points`)."""
-        l1, l2, l3, l4 = self.lengths
-        th, ps, ph = ang[:, 0], ang[:, 1], ang[:, 2]
-        if self.fixed_psi is not None:
-            ps = th + self.fixed_psi                             # ψ = θ + offset (rigid)
-        eth = np.stack([np.cos(th), np.sin(th)], axis=-1)
-        X = np.zeros((5, self.n, 2))
-        X[1] = l1 * eth                                          # r_S − r_P = L1 e_θ
-        X[2] = -l2 * eth                                         # r_H − r_P = −L2 e_θ
-        X[3] = X[2] + l3 * np.stack([np.cos(ps), np.sin(ps)], axis=-1)   # + L3 e_ψ
-        X[4] = X[1] + l4 * np.stack([np.cos(ph), np.sin(ph)], axis=-1)   # r_m − r_P
-        if fl.size:
-            tau = self.tau[self.flight]
-            X[4, self.flight, 0] = fl[0] + fl[2] * tau            # x = x0 + vx τ
-            X[4, self.flight, 1] = fl[1] + fl[3] * tau - 0.5 * self.g * tau ** 2  # − g τ²/2
-        return X
-
-    def predicted(self, x: np.ndarray) -> np.ndarray:
-        """Pixels (5, n, 2) where the tracker should see each point, offsets included."""
-        cam, off, fl, ang = self.split(x)
-        return image_of(cam, self.plane(ang, fl), self.centre, self.radius) + off[:, None, :]
-
-    def residuals(self, x: np.ndarray) -> np.ndarray:
-        cam, off, fl, ang = self.split(x)
-        U = image_of(cam, self.plane(ang, fl), self.centre, self.radius) + off[:, None, :]
-        r_pts = ((U - self.obs) * self.wt[..., None])[self.use]             # tracked − fitted
-        l1, l2, l3, l4 = self.lengths
-        th, ps, ph = ang[:, 0], ang[:, 1], ang[:, 2]
-        k = self.gauge_px / self.sigma
-        r_plumb = k * l3 * np.cos(ps[self.rest])                          # L3 cos ψ = 0
-        r_trough = k * (self.h + l1 * np.sin(th[self.trough])
-                        + l4 * np.sin(ph[self.trough]))                   # y_m = 0
-        r_off = off[list(self.offset_points)].ravel() / self.offset_sd
-        r_k = [cam[8 + i] / self.k_sd[i] for i in range(2) if 8 + i in self.free]
-        r_weak = _WEAK * (ang - self.ang0).ravel()
-        return np.concatenate([r_pts.ravel(), r_plumb, r_trough, r_off, r_k, r_weak])
-
-    def sparsity(self) -> sp.csr_matrix:
-        """Which residual depends on which parameter: each frame's angles touch only that
-        frame's rows; camera parameters touch every point row."""
-        n, nc, ng = self.n, self.free.size, self.n_global
-        no = len(self.offset_points)
-        rows, cols = [], []
-        p_idx, f_idx = np.nonzero(self.use)
-        m = p_idx.size
-        r0 = np.repeat(np.arange(m) * 2, 1)
-        for d in (0, 1):                                         # both coordinates of a point
-            r = r0 + d
-            rows.append(np.repeat(r, nc))
-            cols.append(np.tile(np.arange(nc), m))
-            for j, p in enumerate(self.offset_points):
-                sel = p_idx == p
-                rows.append(r[sel])
-                cols.append(np.full(sel.sum(), nc + 2 * j + d))
-            theta_rows = p_idx > 0
-            flying = (p_idx == 4) & self.flight[f_idx]
-            theta_rows &= ~flying
-            rows.append(r[theta_rows])
-            cols.append(ng + 3 * f_idx[theta_rows])
-            psi = (p_idx == 3) & (self.fixed_psi is None)
-            rows.append(r[psi])
-            cols.append(ng + 3 * f_idx[psi] + 1)
-            phi = (p_idx == 4) & ~flying
-            rows.append(r[phi])
-            cols.append(ng + 3 * f_idx[phi] + 2)
-            if self.flight.any():
-                for q in range(4):
-                    rows.append(r[flying])
-                    cols.append(np.full(flying.sum(), nc + 2 * no + q))
-        row = 2 * m
-        rest = np.flatnonzero(self.rest)
-        rows.append(row + np.arange(rest.size))
-        cols.append(ng + 3 * rest + 1)
-        row += rest.size
-        trough = np.flatnonzero(self.trough)
-        for j in (0, 2):
-            rows.append(row + np.arange(trough.size))
-            cols.append(ng + 3 * trough + j)
-        row += trough.size
-        rows.append(row + np.arange(2 * no))
-        cols.append(nc + np.arange(2 * no))
-        row += 2 * no
-        for i in range(2):
-            if 8 + i in self.free:
-                rows.append(np.array([row]))
-                cols.append(np.array([int(np.flatnonzero(self.free == 8 + i)[0])]))
-                row += 1
-        rows.append(row + np.arange(3 * n))
-        cols.append(ng + np.arange(3 * n))
-        row += 3 * n
-        R, C = np.concatenate(rows), np.concatenate(cols)
-        return sp.csr_matrix((np.ones(R.size), (R, C)), shape=(row, ng + 3 * n))
-
-    def row_blocks(self, x: np.ndarray) -> RowBlocks:
-        """The residuals' Jacobian, analytic, as its blocks (:class:`.RowBlocks`; rows as in
-        :meth:`residuals`): the point rows with every global column, each frame's angles
-        touching only its own rows."""
-        cam, off, fl, ang = self.split(x)
-        nc, ng = self.free.size, self.n_global
-        no = len(self.offset_points)
-        l1, l2, l3, l4 = self.lengths
-        th, ps, ph = ang[:, 0], ang[:, 1], ang[:, 2]
-        if self.fixed_psi is not None:
-            ps = th + self.fixed_psi
-        X = self.plane(ang, fl)
-        p_idx, f_idx = np.nonzero(self.use)
-        m = p_idx.size
-        d_plane, d_cam = image_jacobian(cam, X[p_idx, f_idx], self.centre, self.radius)
-        wt = self.wt[p_idx, f_idx][:, None]
-        d_plane = d_plane * wt[..., None]                       # (m, 2, 2)
-        Jg = np.zeros((m, 2, ng))
-        Jg[:, :, :nc] = d_cam[..., self.free] * wt[..., None]   # camera
-        for j, p in enumerate(self.offset_points):              # offsets: ∂u/∂δ = I
-            sel = p_idx == p
-            Jg[sel, 0, nc + 2 * j] = wt[sel, 0]
-            Jg[sel, 1, nc + 2 * j + 1] = wt[sel, 0]
-        flying = (p_idx == 4) & self.flight[f_idx]
-        if self.flight.any():                                   # x0, y0, vx, vy
-            tau = self.tau[f_idx[flying]][:, None]
-            dp = d_plane[flying]
-            Jg[flying, :, nc + 2 * no] = dp[:, :, 0]
-            Jg[flying, :, nc + 2 * no + 1] = dp[:, :, 1]
-            Jg[flying, :, nc + 2 * no + 2] = dp[:, :, 0] * tau
-            Jg[flying, :, nc + 2 * no + 3] = dp[:, :, 1] * tau
-        et = np.column_stack([-np.sin(th), np.cos(th)])[f_idx]  # ∂e_θ/∂θ = e_θ⊥
-        ep = np.column_stack([-np.sin(ps), np.cos(ps)])[f_idx]
-        eph = np.column_stack([-np.sin(ph), np.cos(ph)])[f_idx]
-        lever = np.where((p_idx == 1) | (p_idx == 4), l1, -l2)[:, None]
-        dth = lever * et                                        # ∂X̃/∂θ: L1 e_θ⊥ or −L2 e_θ⊥
-        if self.fixed_psi is not None:
-            dth = dth + np.where(p_idx == 3, l3, 0.0)[:, None] * ep
-        dth = np.where(((p_idx > 0) & ~flying)[:, None], dth, 0.0)
-        dps = np.where(((p_idx == 3) & (self.fixed_psi is None))[:, None], l3 * ep, 0.0)
-        dph = np.where(((p_idx == 4) & ~flying)[:, None], l4 * eph, 0.0)   # L4 e_φ⊥
-        Ja = d_plane @ np.stack([dth, dps, dph], axis=-1)       # ∂u/∂X̃ ∂X̃/∂(θ, ψ, φ)
-        k = self.gauge_px / self.sigma
-        rest, tr = np.flatnonzero(self.rest), np.flatnonzero(self.trough)
-        Ba = np.zeros((rest.size + tr.size, 3))
-        Ba[:rest.size, 1] = -k * l3 * np.sin(ps[rest])          # ∂(L3 cos ψ)/∂ψ
-        Ba[rest.size:, 0] = k * l1 * np.cos(th[tr])             # ∂y_m/∂θ
-        Ba[rest.size:, 2] = k * l4 * np.cos(ph[tr])             # ∂y_m/∂φ
-        prior_cols = [nc + np.arange(2 * no)]
-        prior_vals = [np.full(2 * no, 1.0 / self.offset_sd)]
-        for i in range(2):
-            if 8 + i in self.free:
-                prior_cols.append(np.flatnonzero(self.free == 8 + i))
-                prior_vals.append(np.array([1.0 / self.k_sd[i]]))
-        return RowBlocks(Jg.reshape(2 * m, ng), Ja.reshape(2 * m, 3), np.repeat(f_idx, 2),
-                         Ba, np.concatenate([rest, tr]), np.concatenate(prior_cols),
-                         np.concatenate(prior_vals), _WEAK, ng, self.n)
-
-    def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
-        """The residuals' Jacobian as a sparse matrix (for ``least_squares``)."""
-        return self.row_blocks(x).matrix()
-
-    def subset(self, frames: np.ndarray) -> _Problem:
-        """The same problem on the frames ``frames`` (indices)."""
-        f = frames
-        out = _Problem(**{k: getattr(self, k) for k in self.__dataclass_fields__})
-        out.obs, out.use, out.wt = self.obs[:, f], self.use[:, f], self.wt[:, f]
-        out.rest, out.trough, out.sling = self.rest[f], self.trough[f], self.sling[f]
-        out.flight, out.tau, out.ang0 = self.flight[f], self.tau[f], self.ang0[f]
-        return out
-
 
 #: The robust loss's scale, in noise sd: residuals beyond it count less and less.
 F_SCALE = 3.0
@@ -494,8 +163,8 @@ FLAG_ROUNDS = 3
 SELECTION_ITERATIONS = 10
 
 
-def _solve(pb: _Problem, x0: np.ndarray, solver: str = "blocks", ftol: float | None = None,
-           max_iter: int = 100):
+def _solve(pb: CalibrationProblem, x0: np.ndarray, solver: str = "blocks",
+           ftol: float | None = None, max_iter: int = 100):
     """One robust least squares (soft-L1, scale :data:`F_SCALE` noise sd) with the analytic
     sparse Jacobian: "blocks" by :func:`.block_least_squares.block_least_squares` (the
     frames' angle blocks eliminated by the Schur complement, time linear in the frames),
@@ -509,144 +178,6 @@ def _solve(pb: _Problem, x0: np.ndarray, solver: str = "blocks", ftol: float | N
                          max_nfev=max_iter, xtol=1e-10, ftol=ftol)
 
 
-# ---------------------------------------------------------------- starting values
-
-def _branch(values: np.ndarray, low: float) -> np.ndarray:
-    """Unwrap ``values`` (rad) over the finite ones; shift into [low, low + 2π) at the first."""
-    out = values.copy()
-    ok = np.isfinite(values)
-    if ok.any():
-        u = np.unwrap(values[ok])
-        out[ok] = u - 2 * np.pi * np.floor((u[0] - low) / (2 * np.pi))
-    return out
-
-
-def _fill(values: np.ndarray) -> np.ndarray:
-    """NaN filled by linear interpolation over the frames (0 where nothing is known)."""
-    ok = np.isfinite(values)
-    if not ok.any():
-        return np.zeros_like(values)
-    idx = np.arange(values.size)
-    return np.interp(idx, idx[ok], values[ok])
-
-
-def _start_angles(pb: _Problem, cam: np.ndarray) -> np.ndarray:
-    """Each frame's angles from its pixels taken back to the plane with the camera ``cam``
-    (atan2 of two points, as the uncalibrated reader does), gaps interpolated."""
-    Hinv = np.linalg.inv(_normalised_homography(cam))
-    X = np.full(pb.obs.shape, np.nan)
-    for p in range(5):
-        u = undistort(pb.obs[p], cam[8], cam[9], tuple(pb.centre), pb.radius)
-        X[p] = np.where(pb.use[p][:, None], apply_homography(Hinv, u), np.nan)
-    l1, l2, l3, l4 = pb.lengths
-    th = np.arctan2(X[1, :, 1], X[1, :, 0])                      # pivot → spigot
-    from_hinge = np.arctan2(-X[2, :, 1], -X[2, :, 0])            # hinge → pivot
-    th = _fill(_branch(np.where(np.isfinite(th), th, from_hinge), BRANCH_START[0]))
-    eth = np.stack([np.cos(th), np.sin(th)], axis=-1)
-    cw = X[3] + l2 * eth                                         # r_M − r_H
-    ps = _fill(_branch(np.arctan2(cw[:, 1], cw[:, 0]), BRANCH_START[1]))
-    st = X[4] - l1 * eth                                         # r_m − r_S
-    ph = np.arctan2(st[:, 1], st[:, 0])
-    ph = np.where(pb.sling, ph, np.nan)
-    in_trough = pb.trough & ~np.isfinite(ph)                     # φ from the level alone
-    s = np.clip(-(pb.h + l1 * np.sin(th)) / l4, -1, 1)
-    ph = np.where(in_trough, -np.pi - np.arcsin(s), ph)          # sin φ = −(H + L1 sin θ)/L4
-    ph = _fill(_branch(ph, BRANCH_START[2]))
-    return np.column_stack([th, ps, ph])
-
-
-def _start_flight(pb: _Problem, cam: np.ndarray) -> np.ndarray:
-    """x0, y0, vx, vy (units of L1, s) of the parabola through the flight pixels."""
-    Hinv = np.linalg.inv(_normalised_homography(cam))
-    sel = pb.flight & pb.use[4]
-    X = apply_homography(Hinv, undistort(pb.obs[4, sel], cam[8], cam[9], tuple(pb.centre),
-                                         pb.radius))
-    tau = pb.tau[sel]
-    A = np.column_stack([np.ones_like(tau), tau])
-    cx = np.linalg.lstsq(A, X[:, 0], rcond=None)[0]              # x = x0 + vx τ
-    cy = np.linalg.lstsq(A, X[:, 1] + 0.5 * pb.g * tau ** 2, rcond=None)[0]  # y + gτ²/2
-    return np.array([cx[0], cy[0], cx[1], cy[1]])
-
-
-def _onset(d: np.ndarray, low: float, power: float) -> int:
-    """Frame where a departure ``d`` (n,) from rest starts, for a departure growing like
-    ``(t − t0)^power``: from the first frames ``a`` and ``b`` (three in a row) above ``low``
-    and ``4 low``, ``t0 = (4^(1/power) a − b) / (4^(1/power) − 1)`` (earlier when it grows
-    more slowly than that: on the safe side). ``d.size`` when it never departs."""
-    def first_above(level: float) -> int | None:
-        up = np.nan_to_num(d, nan=0.0) > level
-        run = up[:-2] & up[1:-1] & up[2:]
-        return int(np.flatnonzero(run)[0]) if run.any() else None
-
-    a, b = first_above(low), first_above(4.0 * low)
-    if a is None:
-        return d.size
-    if b is None:
-        return a
-    q = 4.0 ** (1.0 / power)
-    return max(int(np.floor((q * a - b) / (q - 1.0))), 0)
-
-
-def _rest_frames(track: np.ndarray, frames: int = 5, z: float = 6.0) -> np.ndarray:
-    """Frames before the engine first moves: ``track`` (n, 2) px of a moving point departs
-    from its first ``frames`` positions by more than ``z`` noise sd (noise from the
-    frame-to-frame steps there); the onset of that departure (quadratic: the beam's
-    acceleration jumps at the trigger) ends the rest."""
-    n = track.shape[0]
-    ok = np.isfinite(track).all(axis=1)
-    head = np.flatnonzero(ok)[:4 * frames]
-    if head.size < 2 * frames:
-        return np.zeros(n, bool)
-    steps = np.hypot(*np.diff(track[head], axis=0).T)
-    noise = max(float(np.median(steps)) / RAYLEIGH_MEDIAN / np.sqrt(2.0), 0.05)
-    centre = np.median(track[head[:frames]], axis=0)
-    first = _onset(np.hypot(*(track - centre).T), max(z * noise, 1.0), 2.0)
-    rest = np.zeros(n, bool)
-    rest[:max(first - 1, 0)] = True
-    rest &= ok
-    return rest if rest.sum() >= frames else np.zeros(n, bool)
-
-
-def _circle_centre(track: np.ndarray) -> np.ndarray:
-    """Centre (2,) px of the circle through a track (n, 2): linear least squares of
-    ``x² + y² + D x + E y + F = 0`` (Kåsa), centre ``(−D/2, −E/2)``."""
-    q = track[np.isfinite(track).all(axis=1)]
-    A = np.column_stack([q[:, 0], q[:, 1], np.ones(len(q))])
-    D, E, _ = np.linalg.lstsq(A, -(q[:, 0] ** 2 + q[:, 1] ** 2), rcond=None)[0]
-    return np.array([-D / 2, -E / 2])
-
-
-def _sling_frames(obs: dict[str, np.ndarray], pivot: np.ndarray) -> np.ndarray:
-    """Frames before the projectile flies off its sling's circle: the ratio
-    |projectile − spigot| / |spigot − pivot| (pixels) rises for good above 1.1 × its
-    median over the first half of the track."""
-    n = obs["projectile"].shape[0]
-    if "spigot" not in obs:
-        return np.ones(n, bool)
-    sling = np.hypot(*(obs["projectile"] - obs["spigot"]).T)
-    beam = np.hypot(*(obs["spigot"] - pivot).T)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = sling / beam
-    ok = np.flatnonzero(np.isfinite(ratio))
-    if ok.size < 10:
-        return np.ones(n, bool)
-    level = float(np.median(ratio[ok[:ok.size // 2]]))
-    near = ok[ratio[ok] <= 1.1 * level]
-    last = near[-1] if near.size else -1
-    out = np.ones(n, bool)
-    if ok[-1] - last >= 5:                                       # a sustained final rise
-        out[last + 1:] = False
-    return out
-
-
-def _trough_frames(y: np.ndarray, rest: np.ndarray, tol: float) -> np.ndarray:
-    """Frames from the start on which the projectile's height ``y`` (units of L1, trough at
-    0) stays on the trough's level: until the onset of its rise above ``tol`` (cubic: at
-    lift-off the trough's push falls to zero continuously)."""
-    first = _onset(y, tol, 3.0)
-    out = np.zeros(y.size, bool)
-    out[:max(first - 1, 0)] = True
-    return out & (np.isfinite(y) | rest)
 
 
 # ---------------------------------------------------------------- the fit
@@ -746,16 +277,16 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     pivot_img = (np.nanmedian(obs["pivot"], axis=0) if "pivot" in obs
                  and np.isfinite(obs["pivot"]).any() else None)
     if pivot_img is None:                                        # the spigot's circle's centre
-        pivot_img = _circle_centre(obs["spigot" if "spigot" in obs else "hinge"])
+        pivot_img = circle_centre(obs["spigot" if "spigot" in obs else "hinge"])
         notes.append("the pivot is not tracked: its pixel starts at the centre of the "
                      "spigot's (or hinge's) circle")
     # --- which frames get which constraint
     moving = next(obs[k] for k in ("spigot", "projectile", "counterweight", "hinge")
                   if k in obs)
-    rest = (np.asarray(at_rest, bool) if at_rest is not None else _rest_frames(moving))
+    rest = (np.asarray(at_rest, bool) if at_rest is not None else rest_frames(moving))
     if "projectile" in obs:
         sling = (np.asarray(in_sling, bool) if in_sling is not None else
-                 _sling_frames(obs, pivot_img))
+                 sling_frames(obs, pivot_img))
     else:
         sling = np.ones(n, bool)
     flight = ~sling & (g is not None) & (t is not None)
@@ -787,7 +318,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     cam0 = np.zeros(10)
     if given is not None:
         N = np.array([[1 / L, 0.0, 0.0], [0.0, 1 / L, -H / L], [0.0, 0.0, 1.0]])
-        cam0 = _parameters_of(given.Hm @ np.linalg.inv(N))
+        cam0 = parameters_of(given.Hm @ np.linalg.inv(N))
         cam0[8:] = given.k1, given.k2
     else:
         arc_name, arc_len = ("spigot", 1.0) if "spigot" in obs else ("hinge", engine.L2 / L)
@@ -797,15 +328,15 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         pc = pivot_img
         Hc = circle_homography(arc, pc)
         if Hc is not None:
-            cam0 = _parameters_of(Hc @ np.diag([1 / arc_len, 1 / arc_len, 1.0]))
+            cam0 = parameters_of(Hc @ np.diag([1 / arc_len, 1 / arc_len, 1.0]))
         if Hc is None or np.hypot(cam0[6], cam0[7]) > 0.5 or abs(cam0[4]) > 0.3:
             s0 = float(np.median(np.hypot(*(arc - pc).T))) / arc_len
             cam0 = np.array([pc[0], pc[1], s0, 0, 0, 0, 0, 0, 0, 0])
             notes.append("the spigot's track gives no ellipse about the pivot: started from "
                          "a fronto-parallel camera")
         cam0[8:] = k1k2
-    if levels[-1] in _FREE:
-        cam0[_FREE[levels[-1]]:8] = 0.0
+    if levels[-1] in FREE_PARAMETERS:
+        cam0[FREE_PARAMETERS[levels[-1]]:8] = 0.0
     vertical = plumb.any() or trough_mask.any() or flight.any()
     if not vertical:
         notes.append("no rest, trough or flight frames: the image's vertical is taken as "
@@ -818,13 +349,13 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     def free_of(level: str) -> np.ndarray:
         if level == "given":
             return np.zeros(0, int)
-        idx = list(range(_FREE[level]))
+        idx = list(range(FREE_PARAMETERS[level]))
         if not vertical and 3 in idx:
             idx.remove(3)
         return np.array(idx, int)
 
     offset_points = tuple(p for p in range(1, 5) if use[p].any())
-    pb = _Problem(obs=O, use=use, wt=wt / (noise_px or 1.0),
+    pb = CalibrationProblem(obs=O, use=use, wt=wt / (noise_px or 1.0),
                   lengths=(1.0, engine.L2 / L, engine.L3 / L, engine.L4 / L), h=H / L,
                   centre=centre, radius=radius, rest=plumb & use[3],
                   trough=trough_mask, sling=sling, flight=flight, tau=tau,
@@ -832,17 +363,17 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
                   offset_points=offset_points, sigma=noise_px or 1.0,
                   offset_sd=offset_prior_px, k_sd=k_sd, gauge_px=float(cam0[2]),
                   fixed_psi=fixed_psi)
-    pb.ang0 = _start_angles(pb, cam0)
+    pb.ang0 = start_angles(pb, cam0)
 
-    def x_of(p: _Problem, cam: np.ndarray, off: np.ndarray, fl: np.ndarray,
+    def x_of(p: CalibrationProblem, cam: np.ndarray, off: np.ndarray, fl: np.ndarray,
              ang: np.ndarray) -> np.ndarray:
         nf = 4 if p.flight.any() else 0
         if nf and fl.size == 0:
-            fl = _start_flight(p, cam)
+            fl = start_flight(p, cam)
         return np.concatenate([cam[p.free], off[list(p.offset_points)].ravel(), fl[:nf],
                                ang.ravel()])
 
-    def with_sigma(p: _Problem, sigma: float) -> None:
+    def with_sigma(p: CalibrationProblem, sigma: float) -> None:
         p.wt = p.wt * p.sigma / sigma
         p.sigma = sigma
 
@@ -855,7 +386,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     res = _solve(sub, x_of(sub, cam0, np.zeros((5, 2)), np.zeros(0), sub.ang0), solver,
                  SELECTION_FTOL)
     if noise_px is None:
-        sigma = _noise_sd(sub, res.x)
+        sigma = noise_sd(sub, res.x)
         with_sigma(sub, max(sigma, 1e-3))
         with_sigma(pb, max(sigma, 1e-3))
     top_cam, top_off, top_fl, _ = sub.split(res.x)
@@ -865,14 +396,14 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
     for level in levels:                                         # from the simplest up
         sub.free = free_of(level)
         cam = top_cam.copy()
-        if level in _FREE:                                       # the rest held at zero
-            cam[_FREE[level]:] = 0.0
+        if level in FREE_PARAMETERS:                                       # the rest held at zero
+            cam[FREE_PARAMETERS[level]:] = 0.0
             cam[8:] = cam0[8:] if lens is not None else cam[8:]
         sub.cam0 = cam
         if level == levels[-1]:
             x0 = res.x
         else:
-            sub.ang0 = _start_angles(sub, cam)
+            sub.ang0 = start_angles(sub, cam)
             x0 = x_of(sub, cam, top_off, top_fl, sub.ang0)
         fit = _solve(sub, x0, solver, SELECTION_FTOL, SELECTION_ITERATIONS)
         sols[level] = (fit.x, cam)
@@ -888,20 +419,20 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
 
     # --- the projectile's trough frames, from its height with the chosen camera
     if trough and in_trough is None and "projectile" in obs and rest.any():
-        Hinv = np.linalg.inv(_normalised_homography(cam_best))
+        Hinv = np.linalg.inv(normalised_homography(cam_best))
         y = apply_homography(Hinv, undistort(np.where(use[4][:, None], O[4], np.nan),
                                              cam_best[8], cam_best[9], tuple(centre),
                                              radius))[:, 1] + pb.h
         y_rest = y[rest & np.isfinite(y)]
         sd = 1.4826 * float(np.median(np.abs(y_rest - np.median(y_rest)))) if y_rest.size else 0
         floor = pb.sigma / cam_best[2]                           # one noise sd, units of L1
-        pb.trough = _trough_frames(y - (np.median(y_rest) if y_rest.size else 0.0), rest,
+        pb.trough = trough_frames(y - (np.median(y_rest) if y_rest.size else 0.0), rest,
                                    max(5.0 * sd, 3.0 * floor))
     # --- all frames at the chosen level
     pb.free, pb.cam0 = free_of(best.level), cam_best
-    pb.ang0 = _start_angles(pb, cam_best)
+    pb.ang0 = start_angles(pb, cam_best)
     final = _solve(pb, x_of(pb, cam_best, off_best, fl_best, pb.ang0), solver)
-    sigma = noise_px if noise_px is not None else _noise_sd(pb, final.x)
+    sigma = noise_px if noise_px is not None else noise_sd(pb, final.x)
     flagged: tuple[FlaggedTrack, ...] = ()
     gaps = {name: np.zeros(n, bool) for name in POINTS if name in obs}
     for _ in range(FLAG_ROUNDS):          # the worst point of a frame first, then look again
@@ -924,21 +455,21 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
             with_sigma(pb, max(sigma, 1e-3))
         final = _solve(pb, final.x, solver)
         if noise_px is None:
-            sigma = _noise_sd(pb, final.x)
+            sigma = noise_sd(pb, final.x)
     U = pb.predicted(final.x)
     cam, off, fl, ang = pb.split(final.x)
     if noise_px is None:
-        sigma = _noise_sd(pb, final.x)
+        sigma = noise_sd(pb, final.x)
     # --- uncertainty: Gauss–Newton covariance, split by the Schur complement
     blocks = (final.normal if hasattr(final, "normal") else
               normal_blocks(final.jac, pb.n_global, n, 3))
     sd_frame, sd_cal, sd_global = _angle_sd(blocks, sigma / pb.sigma)
-    has = _angle_has_data(pb)
+    has = angles_with_data(pb)
     if fixed_psi is not None:                                    # ψ = θ + offset (rigid)
         ang[:, 1] = ang[:, 0] + fixed_psi
         sd_frame[:, 1], sd_cal[:, 1] = sd_frame[:, 0], sd_cal[:, 0]
     for j in range(3):
-        ang[:, j] = _branch(np.where(has[:, j], ang[:, j], np.nan), BRANCH_START[j])
+        ang[:, j] = branch(np.where(has[:, j], ang[:, j], np.nan), BRANCH_START[j])
     sd_frame = np.where(has, sd_frame, np.nan)
     sd_cal = np.where(has, sd_cal, np.nan)
     cam_sd = np.zeros(10)
@@ -981,7 +512,7 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         seconds=time.perf_counter() - start)
 
 
-def _culprits(pb: _Problem, x: np.ndarray, limit: float, solver: str) -> np.ndarray:
+def _culprits(pb: CalibrationProblem, x: np.ndarray, limit: float, solver: str) -> np.ndarray:
     """(5, n) bool: in each frame with a residual beyond ``limit`` px, the point whose
     leaving out lets the others fit best (the frame's angles refitted with the camera,
     offsets and flight held): one wrong point drags the fitted frame and its neighbours'
@@ -1015,27 +546,6 @@ def _culprits(pb: _Problem, x: np.ndarray, limit: float, solver: str) -> np.ndar
     blame = np.argmin(worst_left, axis=0)                        # the best point to leave out
     out[blame, frames] = True
     return out & pb.use
-
-
-def _noise_sd(pb: _Problem, x: np.ndarray) -> float:
-    """The tracker's noise sd per coordinate (px), robustly from the fit's residuals: the
-    median residual distance over the Rayleigh median √(2 ln 2), scaled up by
-    √(N / (N − p)) for the p parameters fitted to the N coordinates (each frame's angles
-    take up part of its noise)."""
-    r = (pb.predicted(x) - pb.obs)[pb.use]
-    n_obs = r.size
-    n_par = pb.n_global + int(_angle_has_data(pb).sum())
-    raw = float(np.median(np.hypot(r[:, 0], r[:, 1]))) / RAYLEIGH_MEDIAN
-    return max(raw * np.sqrt(n_obs / max(n_obs - n_par, 1)), 1e-3)
-
-
-def _angle_has_data(pb: _Problem) -> np.ndarray:
-    """(n, 3) bool: the frame's θ, ψ, φ are fixed by some residual other than the weak
-    prior."""
-    th = pb.use[1] | pb.use[2]
-    ps = pb.use[3] & th if pb.fixed_psi is None else th
-    ph = ((pb.use[4] & ~pb.flight) | pb.trough) & th
-    return np.column_stack([th, ps, ph])
 
 
 def _angle_sd(blocks: tuple[np.ndarray, np.ndarray, np.ndarray], rescale: float
