@@ -255,89 +255,35 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         check_choice("calibrate", "levels", level, ALL_LEVELS)
     obs, w, n = _prepare_points(points, weights)
     notes: list[str] = []
-    all_pts = np.concatenate([v[np.isfinite(v).all(axis=1)] for v in obs.values()])
-    if all_pts.shape[0] == 0:
-        raise TrebuchetInputError("calibrate: no tracked position at all")
-    lo, hi = all_pts.min(axis=0), all_pts.max(axis=0)
     given = camera if isinstance(camera, Camera) else None
     lens = camera if isinstance(camera, Intrinsics) else None
-    if given is not None:
-        centre, radius = np.array(given.centre, float), given.radius
-    elif lens is not None:
-        centre, radius = np.array(lens.centre, float), lens.radius
-    elif image_size is not None:
-        centre, radius = np.array([image_size[0] / 2, -image_size[1] / 2]), float(image_size[0])
-    else:
-        centre, radius = 0.5 * (lo + hi), float(np.hypot(*(hi - lo)))
-        notes.append("no image size: distortion about the centre of the tracked points")
-    rho_max = max(float(np.max(np.hypot(*(all_pts - centre).T))) / radius, 1e-3)
-    k_sd = (distortion_prior_px / (radius * rho_max ** 3),
-            distortion_prior_px / (radius * rho_max ** 5))
-
-    pivot_img = (np.nanmedian(obs["pivot"], axis=0) if "pivot" in obs
-                 and np.isfinite(obs["pivot"]).any() else None)
-    if pivot_img is None:                                        # the spigot's circle's centre
-        pivot_img = circle_centre(obs["spigot" if "spigot" in obs else "hinge"])
-        notes.append("the pivot is not tracked: its pixel starts at the centre of the "
-                     "spigot's (or hinge's) circle")
+    centre, radius, k_sd = _distortion_frame(obs, given or lens, image_size,
+                                             distortion_prior_px, notes)
+    pivot_img = _pivot_pixel(obs, notes)
     # --- which frames get which constraint
     moving = next(obs[k] for k in ("spigot", "projectile", "counterweight", "hinge")
                   if k in obs)
-    rest = (np.asarray(at_rest, bool) if at_rest is not None else rest_frames(moving))
+    rest = np.asarray(at_rest, bool) if at_rest is not None else rest_frames(moving)
+    sling = np.ones(n, bool)
     if "projectile" in obs:
         sling = (np.asarray(in_sling, bool) if in_sling is not None else
                  sling_frames(obs, pivot_img))
-    else:
-        sling = np.ones(n, bool)
     flight = ~sling & (g is not None) & (t is not None)
-    if "projectile" in obs and flight.any() and np.isfinite(obs["projectile"][flight]).all(
-            axis=1).sum() < 5:
+    if "projectile" in obs and np.isfinite(obs["projectile"][flight]).all(axis=1).sum() < 5:
         flight[:] = False
     tau = np.zeros(n)
     if flight.any():
         tt = np.asarray(t, float)
-        tau = tt - tt[np.flatnonzero(flight)[0]]
+        tau = tt - tt[np.flatnonzero(flight)[0]]                 # s since the first flight frame
     trough_mask = (np.asarray(in_trough, bool) if in_trough is not None
                    else (rest.copy() if trough and "projectile" in obs else np.zeros(n, bool)))
-    fixed_psi = engine.counterweight_offset
-    plumb = rest if fixed_psi is None else np.zeros(n, bool)  # a rigid one does not hang
-
-    # --- the problem's arrays
-    O = np.zeros((5, n, 2))
-    use = np.zeros((5, n), bool)
-    wt = np.zeros((5, n))
-    for p, name in enumerate(POINTS):
-        if name in obs:
-            ok = np.isfinite(obs[name]).all(axis=1) & (w[name] > 0)
-            if name == "projectile":
-                ok &= sling | flight
-            O[p] = np.where(ok[:, None], obs[name], 0.0)
-            use[p], wt[p] = ok, np.sqrt(w[name])
-    L = engine.L1
-    # --- the start: the spigot's ellipse about the pivot
-    cam0 = np.zeros(10)
-    if given is not None:
-        N = np.array([[1 / L, 0.0, 0.0], [0.0, 1 / L, -H / L], [0.0, 0.0, 1.0]])
-        cam0 = parameters_of(given.Hm @ np.linalg.inv(N))
-        cam0[8:] = given.k1, given.k2
-    else:
-        arc_name, arc_len = ("spigot", 1.0) if "spigot" in obs else ("hinge", engine.L2 / L)
-        arc = obs[arc_name][use[POINTS.index(arc_name)]]
-        k1k2 = (lens.k1, lens.k2) if lens else (0.0, 0.0)
-        arc = undistort(arc, *k1k2, tuple(centre), radius)
-        pc = pivot_img
-        Hc = circle_homography(arc, pc)
-        if Hc is not None:
-            cam0 = parameters_of(Hc @ np.diag([1 / arc_len, 1 / arc_len, 1.0]))
-        if Hc is None or np.hypot(cam0[6], cam0[7]) > 0.5 or abs(cam0[4]) > 0.3:
-            s0 = float(np.median(np.hypot(*(arc - pc).T))) / arc_len
-            cam0 = np.array([pc[0], pc[1], s0, 0, 0, 0, 0, 0, 0, 0])
-            notes.append("the spigot's track gives no ellipse about the pivot: started from "
-                         "a fronto-parallel camera")
-        cam0[8:] = k1k2
+    plumb = rest if engine.counterweight_offset is None else np.zeros(n, bool)  # rigid: no
+    O, use, wt = _observations(obs, w, sling | flight)
+    # --- the start: the spigot's ellipse about the pivot (or the user's camera)
+    cam0 = _start_camera(obs, use, engine, H, given, lens, centre, radius, pivot_img, notes)
     if levels[-1] in FREE_PARAMETERS:
         cam0[FREE_PARAMETERS[levels[-1]]:8] = 0.0
-    vertical = plumb.any() or trough_mask.any() or flight.any()
+    vertical = bool(plumb.any() or trough_mask.any() or flight.any())
     if not vertical:
         notes.append("no rest, trough or flight frames: the image's vertical is taken as "
                      "the engine's")
@@ -345,150 +291,261 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         levels = ("given",)
     elif lens is not None:
         levels = tuple(dict.fromkeys(lv.split("+")[0] for lv in levels))  # lens fixed
-
-    def free_of(level: str) -> np.ndarray:
-        if level == "given":
-            return np.zeros(0, int)
-        idx = list(range(FREE_PARAMETERS[level]))
-        if not vertical and 3 in idx:
-            idx.remove(3)
-        return np.array(idx, int)
-
-    offset_points = tuple(p for p in range(1, 5) if use[p].any())
-    pb = CalibrationProblem(obs=O, use=use, wt=wt / (noise_px or 1.0),
-                  lengths=(1.0, engine.L2 / L, engine.L3 / L, engine.L4 / L), h=H / L,
-                  centre=centre, radius=radius, rest=plumb & use[3],
-                  trough=trough_mask, sling=sling, flight=flight, tau=tau,
-                  g=(g or 0.0) / L, cam0=cam0, free=free_of(levels[-1]),
-                  offset_points=offset_points, sigma=noise_px or 1.0,
-                  offset_sd=offset_prior_px, k_sd=k_sd, gauge_px=float(cam0[2]),
-                  fixed_psi=fixed_psi)
+    L = engine.L1
+    pb = CalibrationProblem(
+        obs=O, use=use, wt=wt / (noise_px or 1.0),
+        lengths=(1.0, engine.L2 / L, engine.L3 / L, engine.L4 / L), h=H / L, centre=centre,
+        radius=radius, rest=plumb & use[3], trough=trough_mask, sling=sling, flight=flight,
+        tau=tau, g=(g or 0.0) / L, cam0=cam0, free=_free_of(levels[-1], vertical),
+        offset_points=tuple(p for p in range(1, 5) if use[p].any()),
+        sigma=noise_px or 1.0, offset_sd=offset_prior_px, k_sd=k_sd,
+        gauge_px=float(cam0[2]), fixed_psi=engine.counterweight_offset)
     pb.ang0 = start_angles(pb, cam0)
+    # --- the camera's level, on a subsample; then the trough's frames with that camera
+    fits, cam, off, fl = _choose_level(pb, levels, vertical, lens is not None, noise_px is None,
+                                       selection_frames, solver)
+    best = _pick_level(fits)
+    if trough and in_trough is None and "projectile" in obs and rest.any():
+        pb.trough = _trough_with(pb, cam, rest)
+    # --- all frames at the chosen level; outliers out, refit
+    pb.free, pb.cam0 = _free_of(best.level, vertical), cam
+    pb.ang0 = start_angles(pb, cam)
+    final = _solve(pb, _x_of(pb, cam, off, fl, pb.ang0), solver)
+    final, sigma, flagged, gaps = _flag_and_refit(pb, final, [k for k in POINTS if k in obs],
+                                                  noise_px, flag_threshold, solver)
+    return _result(pb, final, sigma, engine, H, lens, best, fits, obs, rest, flagged, gaps,
+                   notes, start)
 
-    def x_of(p: CalibrationProblem, cam: np.ndarray, off: np.ndarray, fl: np.ndarray,
-             ang: np.ndarray) -> np.ndarray:
-        nf = 4 if p.flight.any() else 0
-        if nf and fl.size == 0:
-            fl = start_flight(p, cam)
-        return np.concatenate([cam[p.free], off[list(p.offset_points)].ravel(), fl[:nf],
-                               ang.ravel()])
 
-    def with_sigma(p: CalibrationProblem, sigma: float) -> None:
-        p.wt = p.wt * p.sigma / sigma
-        p.sigma = sigma
+def _distortion_frame(obs: dict[str, np.ndarray], camera: Camera | Intrinsics | None,
+                      image_size: tuple[float, float] | None, prior_px: float,
+                      notes: list[str]) -> tuple[np.ndarray, float, tuple[float, float]]:
+    """Distortion centre (px), radius R (px) and the prior sd of k1 and k2 (a displacement
+    of ``prior_px`` at the data's furthest radius ρ_max: ``prior_px / (R ρ_max³)``, ``…⁵``).
+    From the user's camera or lens, else the picture (centre, R its width), else the
+    tracked points' box (a note says so)."""
+    pts = np.concatenate([v[np.isfinite(v).all(axis=1)] for v in obs.values()])
+    if pts.shape[0] == 0:
+        raise TrebuchetInputError("calibrate: no tracked position at all")
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    if camera is not None:
+        centre, radius = np.array(camera.centre, float), float(camera.radius)
+    elif image_size is not None:
+        centre, radius = np.array([image_size[0] / 2, -image_size[1] / 2]), float(image_size[0])
+    else:
+        centre, radius = 0.5 * (lo + hi), float(np.hypot(*(hi - lo)))
+        notes.append("no image size: distortion about the centre of the tracked points")
+    rho_max = max(float(np.max(np.hypot(*(pts - centre).T))) / radius, 1e-3)
+    return centre, radius, (prior_px / (radius * rho_max ** 3), prior_px / (radius * rho_max ** 5))
 
-    # --- choose the level on a subsample of frames
-    step = max(1, int(np.ceil(n / selection_frames)))
-    sub = pb.subset(np.arange(0, n, step))
-    fits: list[LevelFit] = []
-    sols: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    sub.free = free_of(levels[-1])
-    res = _solve(sub, x_of(sub, cam0, np.zeros((5, 2)), np.zeros(0), sub.ang0), solver,
+
+def _pivot_pixel(obs: dict[str, np.ndarray], notes: list[str]) -> np.ndarray:
+    """The pivot's pixel: the median of its track, or the centre of the spigot's (or
+    hinge's) circle when it is not tracked (a note says so)."""
+    if "pivot" in obs and np.isfinite(obs["pivot"]).any():
+        return np.nanmedian(obs["pivot"], axis=0)
+    notes.append("the pivot is not tracked: its pixel starts at the centre of the spigot's "
+                 "(or hinge's) circle")
+    return circle_centre(obs["spigot" if "spigot" in obs else "hinge"])
+
+
+def _observations(obs: dict[str, np.ndarray], w: dict[str, np.ndarray],
+                  stone: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pixels (5, n, 2) (0 where not used), which are used (5, n) and their weights
+    √confidence (5, n); the projectile only on the frames ``stone`` (sling or flight)."""
+    n = next(iter(obs.values())).shape[0]
+    O, use, wt = np.zeros((5, n, 2)), np.zeros((5, n), bool), np.zeros((5, n))
+    for p, name in enumerate(POINTS):
+        if name in obs:
+            ok = np.isfinite(obs[name]).all(axis=1) & (w[name] > 0)
+            if name == "projectile":
+                ok &= stone
+            O[p] = np.where(ok[:, None], obs[name], 0.0)
+            use[p], wt[p] = ok, np.sqrt(w[name])
+    return O, use, wt
+
+
+def _start_camera(obs: dict[str, np.ndarray], use: np.ndarray, engine: Engine, H: float,
+                  given: Camera | None, lens: Intrinsics | None, centre: np.ndarray,
+                  radius: float, pivot: np.ndarray, notes: list[str]) -> np.ndarray:
+    """Starting camera parameters: the user's camera, else the ellipse of the spigot (or
+    hinge) about the pivot (:mod:`.conic_start`), else a fronto-parallel camera with the
+    arc's median radius as its scale (a note says so)."""
+    L = engine.L1
+    if given is not None:
+        N = np.array([[1 / L, 0.0, 0.0], [0.0, 1 / L, -H / L], [0.0, 0.0, 1.0]])
+        cam0 = parameters_of(given.Hm @ np.linalg.inv(N))     # back to X̃ units
+        cam0[8:] = given.k1, given.k2
+        return cam0
+    arc_name, arc_len = ("spigot", 1.0) if "spigot" in obs else ("hinge", engine.L2 / L)
+    k1k2 = (lens.k1, lens.k2) if lens else (0.0, 0.0)
+    arc = undistort(obs[arc_name][use[POINTS.index(arc_name)]], *k1k2, tuple(centre), radius)
+    Hc = circle_homography(arc, pivot)
+    cam0 = np.zeros(10)
+    if Hc is not None:
+        cam0 = parameters_of(Hc @ np.diag([1 / arc_len, 1 / arc_len, 1.0]))
+    if Hc is None or np.hypot(cam0[6], cam0[7]) > 0.5 or abs(cam0[4]) > 0.3:
+        s0 = float(np.median(np.hypot(*(arc - pivot).T))) / arc_len
+        cam0 = np.array([pivot[0], pivot[1], s0, 0, 0, 0, 0, 0, 0, 0])
+        notes.append("the spigot's track gives no ellipse about the pivot: started from a "
+                     "fronto-parallel camera")
+    cam0[8:] = k1k2
+    return cam0
+
+
+def _free_of(level: str, vertical: bool) -> np.ndarray:
+    """Indices of the camera parameters a level frees (the turn only with a vertical)."""
+    if level == "given":
+        return np.zeros(0, int)
+    return np.array([i for i in range(FREE_PARAMETERS[level]) if vertical or i != 3], int)
+
+
+def _x_of(pb: CalibrationProblem, cam: np.ndarray, off: np.ndarray, fl: np.ndarray,
+          ang: np.ndarray) -> np.ndarray:
+    """The unknowns' vector of ``pb`` (free camera, offsets, flight, angles)."""
+    nf = 4 if pb.flight.any() else 0
+    if nf and fl.size == 0:
+        fl = start_flight(pb, cam)
+    return np.concatenate([cam[pb.free], off[list(pb.offset_points)].ravel(), fl[:nf],
+                           ang.ravel()])
+
+
+def _with_sigma(pb: CalibrationProblem, sigma: float) -> None:
+    """Put the residuals of ``pb`` in units of the noise sd ``sigma`` (px)."""
+    sigma = max(sigma, 1e-3)
+    pb.wt = pb.wt * pb.sigma / sigma
+    pb.sigma = sigma
+
+
+def _choose_level(pb: CalibrationProblem, levels: tuple[str, ...], vertical: bool,
+                  lens: bool, estimate_noise: bool, selection_frames: int, solver: str
+                  ) -> tuple[list[LevelFit], np.ndarray, np.ndarray, np.ndarray]:
+    """Fit the levels, simplest first, on at most ``selection_frames`` frames (the richest
+    first, for the noise sd when ``estimate_noise``; ``pb`` gets it too); stop after two
+    richer levels no better. Returns the fits and the best one's camera, offsets, flight."""
+    n = pb.n
+    sub = pb.subset(np.arange(0, n, max(1, int(np.ceil(n / selection_frames)))))
+    sub.free = _free_of(levels[-1], vertical)
+    cam0 = pb.cam0
+    top = _solve(sub, _x_of(sub, cam0, np.zeros((5, 2)), np.zeros(0), sub.ang0), solver,
                  SELECTION_FTOL)
-    if noise_px is None:
-        sigma = noise_sd(sub, res.x)
-        with_sigma(sub, max(sigma, 1e-3))
-        with_sigma(pb, max(sigma, 1e-3))
-    top_cam, top_off, top_fl, _ = sub.split(res.x)
+    if estimate_noise:
+        sigma = noise_sd(sub, top.x)
+        _with_sigma(sub, sigma)
+        _with_sigma(pb, sigma)
+    top_cam, top_off, top_fl, _ = sub.split(top.x)
     n_obs = 2 * int(pb.use.sum())                                # the whole log's N
     per_log = n_obs / (2.0 * max(int(sub.use.sum()), 1))        # its cost per subsample cost
+    fits: list[LevelFit] = []
+    sols: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     worse = 0
-    for level in levels:                                         # from the simplest up
-        sub.free = free_of(level)
+    for level in levels:
+        sub.free = _free_of(level, vertical)
         cam = top_cam.copy()
-        if level in FREE_PARAMETERS:                                       # the rest held at zero
+        if level in FREE_PARAMETERS:                             # the rest held at zero
             cam[FREE_PARAMETERS[level]:] = 0.0
-            cam[8:] = cam0[8:] if lens is not None else cam[8:]
+            cam[8:] = cam0[8:] if lens else cam[8:]
         sub.cam0 = cam
         if level == levels[-1]:
-            x0 = res.x
+            x0 = top.x
         else:
             sub.ang0 = start_angles(sub, cam)
-            x0 = x_of(sub, cam, top_off, top_fl, sub.ang0)
+            x0 = _x_of(sub, cam, top_off, top_fl, sub.ang0)
         fit = _solve(sub, x0, solver, SELECTION_FTOL, SELECTION_ITERATIONS)
         sols[level] = (fit.x, cam)
         fits.append(LevelFit(level, float(fit.cost), int(sub.free.size),
-                             2.0 * per_log * float(fit.cost)
-                             + sub.free.size * np.log(n_obs)))
+                             2.0 * per_log * float(fit.cost) + sub.free.size * np.log(n_obs)))
         worse = worse + 1 if fits[-1].bic > _pick_level(fits).bic else 0
         if worse == 2:                                           # two richer models no better
             break
     best = _pick_level(fits)
-    sub.free, sub.cam0 = free_of(best.level), sols[best.level][1]
-    cam_best, off_best, fl_best, _ = sub.split(sols[best.level][0])
+    sub.free, sub.cam0 = _free_of(best.level, vertical), sols[best.level][1]
+    cam, off, fl, _ = sub.split(sols[best.level][0])
+    return fits, cam, off, fl
 
-    # --- the projectile's trough frames, from its height with the chosen camera
-    if trough and in_trough is None and "projectile" in obs and rest.any():
-        Hinv = np.linalg.inv(normalised_homography(cam_best))
-        y = apply_homography(Hinv, undistort(np.where(use[4][:, None], O[4], np.nan),
-                                             cam_best[8], cam_best[9], tuple(centre),
-                                             radius))[:, 1] + pb.h
-        y_rest = y[rest & np.isfinite(y)]
-        sd = 1.4826 * float(np.median(np.abs(y_rest - np.median(y_rest)))) if y_rest.size else 0
-        floor = pb.sigma / cam_best[2]                           # one noise sd, units of L1
-        pb.trough = trough_frames(y - (np.median(y_rest) if y_rest.size else 0.0), rest,
-                                   max(5.0 * sd, 3.0 * floor))
-    # --- all frames at the chosen level
-    pb.free, pb.cam0 = free_of(best.level), cam_best
-    pb.ang0 = start_angles(pb, cam_best)
-    final = _solve(pb, x_of(pb, cam_best, off_best, fl_best, pb.ang0), solver)
+
+def _trough_with(pb: CalibrationProblem, cam: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """The trough's frames from the projectile's height in the plane (its pixels taken
+    back with the camera ``cam``): to the onset of its rise above 5 sd of its rest
+    height (at least 3 noise sd)."""
+    Hinv = np.linalg.inv(normalised_homography(cam))
+    px = undistort(np.where(pb.use[4][:, None], pb.obs[4], np.nan), cam[8], cam[9],
+                   tuple(pb.centre), pb.radius)
+    y = apply_homography(Hinv, px)[:, 1] + pb.h                  # units of L1, trough at 0
+    y_rest = y[rest & np.isfinite(y)]
+    level = float(np.median(y_rest)) if y_rest.size else 0.0
+    sd = 1.4826 * float(np.median(np.abs(y_rest - level))) if y_rest.size else 0.0
+    floor = pb.sigma / cam[2]                                    # one noise sd, units of L1
+    return trough_frames(y - level, rest, max(5.0 * sd, 3.0 * floor))
+
+
+def _flag_and_refit(pb: CalibrationProblem, final, names: list[str], noise_px: float | None,
+                    flag_threshold: float, solver: str):
+    """Up to :data:`FLAG_ROUNDS` rounds: flag the points to blame (:func:`_culprits`,
+    :func:`.track_flags.flag_tracks`), take them out, refit. Returns the fit, the noise sd
+    (px), the flagged runs and the gaps per point."""
     sigma = noise_px if noise_px is not None else noise_sd(pb, final.x)
+    n = pb.n
     flagged: tuple[FlaggedTrack, ...] = ()
-    gaps = {name: np.zeros(n, bool) for name in POINTS if name in obs}
-    for _ in range(FLAG_ROUNDS):          # the worst point of a frame first, then look again
+    gaps = {name: np.zeros(n, bool) for name in names}
+    for _ in range(FLAG_ROUNDS):
         U = pb.predicted(final.x)
-        observed = {name: np.where(pb.use[p][:, None], pb.obs[p], np.nan)
-                    for p, name in enumerate(POINTS) if name in obs}
-        predicted = {name: U[p] for p, name in enumerate(POINTS) if name in obs}
+        index = {name: POINTS.index(name) for name in names}
+        observed = {k: np.where(pb.use[p][:, None], pb.obs[p], np.nan) for k, p in index.items()}
+        predicted = {k: U[p] for k, p in index.items()}
         culprits = _culprits(pb, final.x, outlier_limit(sigma, flag_threshold), solver)
         found, new = flag_tracks(observed, predicted, sigma, threshold=flag_threshold,
-                                 culprits={name: culprits[p] for p, name in enumerate(POINTS)
-                                           if name in obs})
+                                 culprits={k: culprits[p] for k, p in index.items()})
         if not found:
             break
         flagged += found
-        for p, name in enumerate(POINTS):
-            if name in new:
-                pb.use[p] &= ~new[name]
-                gaps[name] |= new[name]
+        for k, p in index.items():
+            pb.use[p] &= ~new[k]
+            gaps[k] |= new[k]
         if noise_px is None:
-            with_sigma(pb, max(sigma, 1e-3))
+            _with_sigma(pb, sigma)
         final = _solve(pb, final.x, solver)
         if noise_px is None:
             sigma = noise_sd(pb, final.x)
-    U = pb.predicted(final.x)
-    cam, off, fl, ang = pb.split(final.x)
     if noise_px is None:
         sigma = noise_sd(pb, final.x)
-    # --- uncertainty: Gauss–Newton covariance, split by the Schur complement
+    return final, sigma, flagged, gaps
+
+
+def _result(pb: CalibrationProblem, final, sigma: float, engine: Engine, H: float,
+            lens: Intrinsics | None, best: LevelFit, fits: list[LevelFit],
+            obs: dict[str, np.ndarray], rest: np.ndarray, flagged: tuple[FlaggedTrack, ...],
+            gaps: dict[str, np.ndarray], notes: list[str], start: float) -> Calibration:
+    """The :class:`Calibration` of the final fit: angles on the paper's branch (NaN without
+    data), their sd by the Schur complement, the camera and its pose, the residuals."""
+    n = pb.n
+    cam, off, fl, ang = pb.split(final.x)
+    U = pb.predicted(final.x)
     blocks = (final.normal if hasattr(final, "normal") else
               normal_blocks(final.jac, pb.n_global, n, 3))
     sd_frame, sd_cal, sd_global = _angle_sd(blocks, sigma / pb.sigma)
     has = angles_with_data(pb)
-    if fixed_psi is not None:                                    # ψ = θ + offset (rigid)
-        ang[:, 1] = ang[:, 0] + fixed_psi
+    if pb.fixed_psi is not None:                                 # ψ = θ + offset (rigid)
+        ang[:, 1] = ang[:, 0] + pb.fixed_psi
         sd_frame[:, 1], sd_cal[:, 1] = sd_frame[:, 0], sd_cal[:, 0]
     for j in range(3):
         ang[:, j] = branch(np.where(has[:, j], ang[:, j], np.nan), BRANCH_START[j])
     sd_frame = np.where(has, sd_frame, np.nan)
     sd_cal = np.where(has, sd_cal, np.nan)
+    nc, no = pb.free.size, len(pb.offset_points)
     cam_sd = np.zeros(10)
-    cam_sd[pb.free] = sd_global[:pb.free.size]
-    no = len(pb.offset_points)
+    cam_sd[pb.free] = sd_global[:nc]
     off_sd = np.zeros((5, 2))
-    off_sd[list(pb.offset_points)] = sd_global[pb.free.size:pb.free.size + 2 * no].reshape(
-        no, 2)
-    camera_found = camera_of(cam, engine, H, centre, radius)
-    focal = (lens.focal if lens is not None else None)
-    pose = camera_pose(camera_found, focal=focal, centre=tuple(centre), pivot=(0.0, H))
-    k1_focal = (float(cam[8]) * (pose.focal / radius) ** 2 if pose.focal is not None
-                else None)
-    residuals = {name: np.where(pb.use[p][:, None], pb.obs[p] - U[p], np.nan)
-                 for p, name in enumerate(POINTS) if name in obs}
-    fitted = [f"camera: {best.level}" + (" (tilt and distortion fixed by the user's lens)"
+    off_sd[list(pb.offset_points)] = sd_global[nc:nc + 2 * no].reshape(no, 2)
+    camera_found = camera_of(cam, engine, H, pb.centre, pb.radius)
+    pose = camera_pose(camera_found, focal=lens.focal if lens is not None else None,
+                       centre=tuple(pb.centre), pivot=(0.0, H))
+    k1_focal = (float(cam[8]) * (pose.focal / pb.radius) ** 2 if pose.focal is not None
+                else None)                                       # k1 per focal length
+    named = [(p, k) for p, k in enumerate(POINTS) if k in obs]
+    fitted = [f"camera: {best.level}" + (" (distortion fixed by the user's lens)"
                                          if lens is not None else "")]
-    fitted += [f"{name}: {int(pb.use[p].sum())} positions" for p, name in enumerate(POINTS)
-               if name in obs]
+    fitted += [f"{k}: {int(pb.use[p].sum())} positions" for p, k in named]
     fitted += [f"{ANGLES[j]}: {int(has[:, j].sum())} frames" for j in range(3)]
     fitted += [f"plumb counterweight at rest: {int(pb.rest.sum())} frames",
                f"projectile on the trough's level: {int(pb.trough.sum())} frames",
@@ -498,15 +555,14 @@ def calibrate(points: Mapping[str, np.ndarray], engine: Engine, *, H: float,
         parameters=dict(zip(CAMERA_PARAMETERS, cam.tolist(), strict=True)),
         parameters_sd=dict(zip(CAMERA_PARAMETERS, cam_sd.tolist(), strict=True)),
         k1_focal=k1_focal, levels=tuple(fits),
-        offsets={name: off[p] for p, name in enumerate(POINTS) if name in obs},
-        offsets_sd={name: off_sd[p] for p, name in enumerate(POINTS) if name in obs},
+        offsets={k: off[p] for p, k in named}, offsets_sd={k: off_sd[p] for p, k in named},
         theta=ang[:, 0], psi=ang[:, 1], phi=ang[:, 2],
         theta_sd=sd_frame[:, 0], psi_sd=sd_frame[:, 1], phi_sd=sd_frame[:, 2],
         theta_sd_calibration=sd_cal[:, 0], psi_sd_calibration=sd_cal[:, 1],
         phi_sd_calibration=sd_cal[:, 2],
-        residuals=residuals, noise_px=float(sigma), flagged=flagged,
-        gaps={k: v for k, v in gaps.items()}, at_rest=rest.copy(),
-        in_trough=pb.trough.copy(), in_sling=sling.copy(), fitted=tuple(fitted),
+        residuals={k: np.where(pb.use[p][:, None], pb.obs[p] - U[p], np.nan) for p, k in named},
+        noise_px=float(sigma), flagged=flagged, gaps=gaps, at_rest=rest.copy(),
+        in_trough=pb.trough.copy(), in_sling=pb.sling.copy(), fitted=tuple(fitted),
         notes=tuple(notes) + tuple(f.note for f in flagged), cost=float(final.cost),
         nfev=int(final.nfev), success=bool(final.success), message=str(final.message),
         seconds=time.perf_counter() - start)
