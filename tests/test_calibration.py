@@ -174,6 +174,7 @@ def test_tilted_camera_recovered_from_noisy_offset_tracks(horsdal, shot):
     err = np.degrees(np.angle(np.exp(1j * (c.theta - shot.theta))))
     assert np.degrees(np.nanmedian(c.theta_sd)) == pytest.approx(np.std(err), rel=0.5)
     assert np.all(c.theta_sd_calibration > 0)
+    assert "tilt 10." in c.summary() and "roll 0." in c.summary()
 
 
 def test_fronto_parallel_camera_no_worse_than_atan2_of_the_pixels(horsdal, shot):

@@ -145,6 +145,22 @@ class Calibration:
         """``{"theta": …, "psi": …, "phi": …}`` rad."""
         return {"theta": self.theta, "psi": self.psi, "phi": self.phi}
 
+    def summary(self) -> str:
+        """The camera found and the fit's quality in one sentence (for a log's notes)."""
+        p = self.pose
+        tilt = (f"tilt {np.degrees(p.tilt):.1f}° (pitch {np.degrees(p.pitch):.1f}°, yaw "
+                f"{np.degrees(p.yaw):.1f}°), focal {p.focal:.0f} px" if p.focal is not None
+                else "no tilt")
+        k1 = (f", k1 {self.k1_focal:.3f} per focal length" if self.k1_focal is not None
+              and self.parameters_sd["k1"] > 0 else "")
+        sd = {a: np.degrees(np.nanmedian(getattr(self, f"{a}_sd_calibration")))
+              for a in ANGLES}
+        return (f"camera calibrated by the engine ({self.level}): {tilt}, roll "
+                f"{np.degrees(p.roll) + 0.0:.2f}°{k1}, {p.px_per_m:.1f} px/m at the pivot; "
+                f"tracking noise {self.noise_px:.2f} px; calibration sd θ {sd['theta']:.3f}°, "
+                f"ψ {sd['psi']:.3f}°, φ {sd['phi']:.3f}°; {len(self.flagged)} stretches of "
+                f"points left out")
+
 
 
 #: The robust loss's scale, in noise sd: residuals beyond it count less and less.
