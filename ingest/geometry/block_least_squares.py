@@ -81,10 +81,10 @@ class RowBlocks:
         w1, wr1 = w[:k, None], (w * w * r)[:k]
         Jg, Ja = self.Jg * w1, self.Ja * w1
         P = sp.csr_matrix((np.ones(k), (self.frame, np.arange(k))), shape=(n, k))
-        U = Jg.T @ Jg
+        U = np.einsum("ki,kj->ij", Jg, Jg)     # einsum, not BLAS: its threads cost more here
         W = np.stack([P @ (Jg * Ja[:, j:j + 1]) for j in range(b)], axis=-1)  # (n, ng, b)
         V = (P @ (Ja[:, :, None] * Ja[:, None, :]).reshape(k, b * b)).reshape(n, b, b)
-        gg = self.Jg.T @ wr1
+        gg = np.einsum("ki,k->i", self.Jg, wr1)
         ga = P @ (self.Ja * wr1[:, None])
         if kb:
             w2 = w[k:k + kb, None]
@@ -158,9 +158,8 @@ def _step(U: np.ndarray, W: np.ndarray, V: np.ndarray, gg: np.ndarray, ga: np.nd
     Ud = U + lam * np.diag(np.diag(U)) + 1e-12 * np.eye(ng)
     Vinv = np.linalg.inv(Vd)                                      # V_f⁻¹
     WV = W @ Vinv                                                 # W_f V_f⁻¹, (n, ng, b)
-    S = Ud - WV.transpose(1, 0, 2).reshape(ng, n * b) @ W.transpose(1, 0, 2).reshape(
-        ng, n * b).T                                              # U − Σ W_f V_f⁻¹ W_fᵀ
-    rhs = -gg + WV.transpose(1, 0, 2).reshape(ng, n * b) @ ga.ravel()   # −∇g + W V⁻¹ ∇a
+    S = Ud - np.einsum("fgj,fhj->gh", WV, W)                      # U − Σ W_f V_f⁻¹ W_fᵀ
+    rhs = -gg + np.einsum("fgj,fj->g", WV, ga)                     # −∇g + W V⁻¹ ∇a
     dg = np.linalg.lstsq(S, rhs, rcond=None)[0] if ng else np.zeros(0)
     da = -(Vinv @ (ga + (W.transpose(0, 2, 1) @ dg))[:, :, None])[:, :, 0]
     return dg, da
