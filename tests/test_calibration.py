@@ -19,7 +19,7 @@ from trebuchet.ingest.geometry.camera import (
     homography_from_points,
     intrinsics_from_opencv,
 )
-from trebuchet.ingest.geometry.synthetic_points import film, simulated_plane_track
+from trebuchet.ingest.synthetic.filmed_points import film, simulated_plane_track
 
 SIZE = (1920, 1080)
 OFFSETS = {"spigot": (0.4, -0.3), "hinge": (-0.5, 0.2), "counterweight": (0.3, 0.6),

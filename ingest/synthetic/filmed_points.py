@@ -13,11 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from trebuchet.ingest.geometry.camera import Camera
+from trebuchet.ingest.geometry.engine_points import POINTS, plane_points
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
-
-from .camera import Camera
-from .engine_points import POINTS, plane_points
 
 __all__ = ["PlaneTrack", "simulated_plane_track", "film"]
 

@@ -1,7 +1,5 @@
-"""Bench of the calibration (:mod:`.calibration`): angles before and after, camera found,
-time. ``run(out_dir)`` follows the bench folder's convention (a DataFrame whose
-``attrs["notes"]`` are printed above it); a ``bench/calibration_accuracy.py`` holding
-``from trebuchet.ingest.geometry.calibration_bench import run`` puts it in ``make bench``.
+"""The image calibrated by the engine (:mod:`trebuchet.ingest.geometry.calibration`): angles
+before and after, camera found, time (``python -m bench calibration_accuracy``).
 
 Each case films a simulated shot (0.2 s at rest, then to 0.25 s after the release) through
 a known camera, 1920×1080 px, focal 2500 px: "tilted" (pitch 10°, roll 0.3°, k1 = −0.03)
@@ -18,11 +16,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from trebuchet.ingest.geometry.calibration import calibrate
+from trebuchet.ingest.geometry.camera import camera_from_pose
+from trebuchet.ingest.synthetic.filmed_points import film, simulated_plane_track
 from trebuchet.model.scene import Scene
-
-from .calibration import calibrate
-from .camera import camera_from_pose
-from .synthetic_points import film, simulated_plane_track
 
 __all__ = ["run", "case"]
 

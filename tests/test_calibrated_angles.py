@@ -1,0 +1,104 @@
+"""The self-calibration wired into the ingest path (ingest/calibrated_angles.py): a point log
+filmed by a tilted camera with a real lens gets the engine's own calibration, and its bands
+widen by what the calibration does not know."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from trebuchet.ingest.calibrated_angles import (
+    calibrated_log,
+    point_tracks,
+    tracking_noise,
+    widened_by_calibration,
+)
+from trebuchet.ingest.geometry.camera import camera_from_pose
+from trebuchet.ingest.synthetic.filmed_points import film, simulated_plane_track
+
+SIZE = (1920, 1080)
+
+
+def _point_log(track, pts):
+    """A log as read_log gives it for a point file: atan2 angles, the points in attrs."""
+    def direction(a, b):
+        d = pts[b] - pts[a]
+        return np.arctan2(d[:, 1], d[:, 0])
+    phi = np.unwrap(direction("spigot", "projectile"))
+    phi -= 2 * np.pi * np.round((phi[0] + np.pi) / (2 * np.pi))
+    log = pd.DataFrame({"t": track.t, "theta": direction("pivot", "spigot"),
+                        "psi": direction("hinge", "counterweight"), "phi": phi})
+    log.attrs["points"] = {"t": list(track.t)} | {
+        f"{r}_{c}": list(pts[r][:, j]) for r in pts for j, c in enumerate("xy")}
+    return log
+
+
+@pytest.fixture(scope="module")
+def tilted(horsdal):
+    track = simulated_plane_track(horsdal, 120.0, rest=0.2)
+    cam = camera_from_pose(2500.0, SIZE, 40.0, (0.0, 6.0), pitch=np.radians(10.0),
+                           roll=np.radians(0.3), k1=-0.03)
+    pts = film(track, cam, SIZE, 0.5, np.random.default_rng(3))
+    return track, _point_log(track, pts)
+
+
+def _rms_deg(a, b):
+    d = np.angle(np.exp(1j * (a - b)))
+    return float(np.degrees(np.sqrt(np.nanmean(d**2))))
+
+
+def test_the_tilted_camera_is_calibrated_away(horsdal, tilted):
+    track, log = tilted
+    out = calibrated_log(log, horsdal)
+    assert out is not None
+    for name in ("theta", "psi"):
+        raw = _rms_deg(log[name].to_numpy(), getattr(track, name))
+        fit = _rms_deg(out.log[name].to_numpy(), getattr(track, name))
+        assert fit < 0.5 * raw, (name, raw, fit)
+    assert any("calibrated by the engine" in n for n in out.notes)
+    assert all(np.isfinite(sd).all() and (sd >= 0).all() for sd in out.common_sd.values())
+
+
+def test_a_log_of_angles_is_left_alone(horsdal, tilted):
+    _, log = tilted
+    plain = log.copy()
+    plain.attrs = {}
+    assert point_tracks(plain) is None and calibrated_log(plain, horsdal) is None
+
+
+def test_the_tracking_noise_is_read_off_the_fixed_pivot(tilted):
+    _, log = tilted
+    tracks = point_tracks(log)
+    assert 0.35 < tracking_noise(tracks) < 0.7  # filmed with 0.5 px
+    metres = {r: xy / 40.0 for r, xy in tracks.items()}
+    assert tracking_noise(metres) == pytest.approx(tracking_noise(tracks) / 40.0)
+
+
+def test_the_calibration_widens_the_angle_bands_in_quadrature():
+    n = 5
+    est = pd.DataFrame({"theta": np.zeros(n), "theta_sd": np.full(n, 3e-3)})
+    est.attrs["cov"] = {"theta": np.tile(np.diag([9e-6, 1.0, 1.0]), (n, 1, 1))}
+    out = widened_by_calibration(est, {"theta": np.full(n, 4e-3)})
+    assert np.allclose(out["theta_sd"], 5e-3)
+    assert np.allclose(out.attrs["cov"]["theta"][:, 0, 0], 25e-6)
+    assert np.allclose(est.attrs["cov"]["theta"][:, 0, 0], 9e-6)  # the input is untouched
+
+
+def test_reconstruct_takes_the_calibrated_angles_when_asked(horsdal, tilted):
+    import warnings
+
+    from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
+
+    track, log = tilted
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plain = reconstruct(log, horsdal)
+        fitted = reconstruct(log, horsdal, options=ReconstructOptions(image_calibration="engine"))
+    assert any("calibrated by the engine" in n for n in fitted.attrs["notes"])
+    assert not any("calibrated by the engine" in n for n in plain.attrs["notes"])
+    ok = np.isfinite(fitted["theta"]) & np.isfinite(plain["theta"])
+    t = log["t"].to_numpy()[ok]
+    truth = np.interp(t, track.t, track.theta)
+    assert _rms_deg(fitted["theta"].to_numpy()[ok], truth) < _rms_deg(
+        plain["theta"].to_numpy()[ok], truth)
