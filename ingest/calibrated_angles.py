@@ -19,7 +19,8 @@ import pandas as pd
 from trebuchet.ingest.geometry.calibration import Calibration, calibrate
 from trebuchet.model.scene import Scene
 
-__all__ = ["CalibratedLog", "calibrated_log", "point_tracks", "widened_by_calibration"]
+__all__ = ["CalibratedLog", "calibrated_log", "point_tracks", "widened_by_calibration",
+           "pixel_factor", "beam_length"]
 
 ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
 
@@ -53,23 +54,31 @@ def point_tracks(log: pd.DataFrame) -> dict[str, np.ndarray] | None:
     return out or None
 
 
-#: Tracking noise (file units per coordinate) taken for pixels: the calibration's priors on
-#: marker offsets and lens distortion are in pixels of a tracker's noise (about 1 px).
-PIXEL_NOISE = (0.1, 10.0)
+#: Formats whose points are image pixels (the calibration's priors speak of pixels).
+PIXEL_FORMATS = ("deeplabcut", "sleap")
+#: A beam shorter than this many file units is not in pixels (a file in m or cm)...
+PIXEL_BEAM = 50.0
+#: ...and is fitted in pseudo-pixels that put the long arm L1 at this many: a camera
+#: framing the engine puts it at a few hundred pixels.
+PSEUDO_PIXEL_BEAM = 500.0
 
 
-def tracking_noise(tracks: dict[str, np.ndarray]) -> float:
-    """Robust sd per coordinate (file units) of the tracked positions' scatter: the pivot's
-    about its median (it does not move), else the spigot's second differences (/√6)."""
-    pivot = tracks.get("pivot")
-    if pivot is not None and np.isfinite(pivot).all(axis=1).sum() >= 10:
-        ok = pivot[np.isfinite(pivot).all(axis=1)]
-        dev = np.abs(ok - np.median(ok, axis=0))
-        return max(float(np.median(dev)) / 0.6745, 1e-12)
-    xy = tracks.get("spigot", tracks.get("hinge"))
-    d2 = np.diff(xy, n=2, axis=0)
-    d2 = np.abs(d2[np.isfinite(d2).all(axis=1)])
-    return max(float(np.median(d2)) / 0.6745 / np.sqrt(6.0), 1e-12) if d2.size else 1.0
+def beam_length(tracks: dict[str, np.ndarray]) -> float:
+    """The median pivot-to-spigot distance of the tracks (file units; NaN if not tracked)."""
+    if "pivot" not in tracks or "spigot" not in tracks:
+        return float("nan")
+    d = np.hypot(*(tracks["spigot"] - tracks["pivot"]).T)
+    return float(np.nanmedian(d)) if np.isfinite(d).any() else float("nan")
+
+
+def pixel_factor(tracks: dict[str, np.ndarray], fmt: str | None) -> float:
+    """The factor that takes the file's unit to (pseudo-)pixels: 1 for image formats and for
+    beams of at least :data:`PIXEL_BEAM` units, else the one that makes the beam
+    :data:`PSEUDO_PIXEL_BEAM` long."""
+    beam = beam_length(tracks)
+    if fmt in PIXEL_FORMATS or not np.isfinite(beam) or beam >= PIXEL_BEAM:
+        return 1.0
+    return PSEUDO_PIXEL_BEAM / beam
 
 
 def calibrated_log(log: pd.DataFrame, scene: Scene) -> CalibratedLog | None:
@@ -82,10 +91,9 @@ def calibrated_log(log: pd.DataFrame, scene: Scene) -> CalibratedLog | None:
         return None
     t = log["t"].to_numpy(dtype=float)
     vacuum = scene.flight.model == "vacuum"
-    unit = tracking_noise(tracks)
-    rescaled = not (PIXEL_NOISE[0] <= unit <= PIXEL_NOISE[1])
-    if rescaled:  # world units (m, cm): the priors speak of pixels of the tracker's noise
-        tracks = {role: xy / unit for role, xy in tracks.items()}
+    factor = pixel_factor(tracks, log.attrs.get("format"))
+    if factor != 1.0:  # world units (m, cm): the priors speak of pixels
+        tracks = {role: xy * factor for role, xy in tracks.items()}
     cal = calibrate(tracks, scene.engine, H=scene.start.H, g=scene.g if vacuum else None,
                     t=t, trough=scene.projectile == "trough")
     out = log.copy()
@@ -99,9 +107,9 @@ def calibrated_log(log: pd.DataFrame, scene: Scene) -> CalibratedLog | None:
                                              dtype=float))
               for name in ("theta", "psi", "phi")}
     flagged = tuple(f.note for f in cal.flagged)
-    scaled = (f"(the points, in the file's unit with a tracking noise of {unit:.3g}, were "
-              f"fitted in units of that noise: px above means that unit / {unit:.3g})",
-              ) if rescaled else ()
+    scaled = (f"(the points, in the file's length unit, were fitted scaled by {factor:.4g} "
+              "to pseudo-pixels: px above means that unit / "
+              f"{factor:.4g})",) if factor != 1.0 else ()
     notes = (cal.summary(), *scaled, *cal.notes, *flagged)
     return CalibratedLog(out, cal, common, notes, flagged)
 

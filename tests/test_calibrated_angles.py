@@ -9,9 +9,10 @@ import pandas as pd
 import pytest
 
 from trebuchet.ingest.calibrated_angles import (
+    beam_length,
     calibrated_log,
+    pixel_factor,
     point_tracks,
-    tracking_noise,
     widened_by_calibration,
 )
 from trebuchet.ingest.geometry.camera import camera_from_pose
@@ -67,12 +68,17 @@ def test_a_log_of_angles_is_left_alone(horsdal, tilted):
     assert point_tracks(plain) is None and calibrated_log(plain, horsdal) is None
 
 
-def test_the_tracking_noise_is_read_off_the_fixed_pivot(tilted):
+def test_points_in_metres_are_fitted_in_pseudo_pixels(tilted):
+    """Pixels stay pixels; a file in metres (beam a few units long) is scaled to put the
+    beam at 500 pseudo-pixels, so that the calibration's pixel priors mean the same."""
     _, log = tilted
     tracks = point_tracks(log)
-    assert 0.35 < tracking_noise(tracks) < 0.7  # filmed with 0.5 px
+    beam = beam_length(tracks)
+    assert 200 < beam < 600  # 6.48 m filmed from 40 m with a 2500 px focal length
+    assert pixel_factor(tracks, "deeplabcut") == 1.0 == pixel_factor(tracks, "kinovea")
     metres = {r: xy / 40.0 for r, xy in tracks.items()}
-    assert tracking_noise(metres) == pytest.approx(tracking_noise(tracks) / 40.0)
+    assert pixel_factor(metres, "kinovea") == pytest.approx(500.0 / beam_length(metres))
+    assert pixel_factor(metres, "deeplabcut") == 1.0
 
 
 def test_the_calibration_widens_the_angle_bands_in_quadrature():
