@@ -9,7 +9,7 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 
-# The simulator is compiled once (numba, ~30 s) and cached beside its sources.
+# The simulator and the smoother are compiled once (numba, about 20 s) and cached beside their sources.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e .
 	$(BIN)/python -m trebuchet.warm_up

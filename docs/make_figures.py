@@ -1,4 +1,4 @@
-"""Write the README's figures for the paper's engine to docs/figures/*.png.
+"""Write the figures of the README and docs/paper.md for the paper's engine to docs/figures/*.png.
 
 Run from anywhere: ``.venv/bin/python docs/make_figures.py``. The engine is
 data_samples/horsdal_large.toml (Table 1 of the paper); the figures are those of

@@ -5,7 +5,7 @@ per quoted number: the paper's value, the model's, their difference, the
 tolerance the printed precision justifies (half a unit of the last printed
 digit; wider where the paper says "about" or reads a number off a plot) and,
 where the two differ beyond it, why. The command ``trebuchet paper`` prints
-it, the README quotes it, and the tests hold the model to it.
+it, docs/paper.md quotes it, and the tests hold the model to it.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ import pytest
 from trebuchet.model.paper import paper_comparison, paper_values
 
 # Where the model and the paper differ beyond the printed precision, the model's own value is
-# pinned here (with the tolerance of an independent re-computation) and the README explains.
+# pinned here (with the tolerance of an independent re-computation) and docs/paper.md explains.
 PINNED = {
     "lift-off": (347.83, 0.05),
     "sling tension at release": (53.76, 0.01),
