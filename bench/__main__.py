@@ -35,8 +35,8 @@ def _cell(v: object) -> str:
 
 
 def markdown(table: pd.DataFrame, title: str, notes: list[str]) -> str:
-    """A Markdown block (docs/update_docs.py pastes it into docs/benchmarks.md as it is): the title as a line, the
-    notes as a list, the table."""
+    """A Markdown block (docs/update_docs.py pastes it into docs/benchmarks.md as it is):
+    the title as a line, the notes as a list, the table."""
     cols = [str(c) for c in table.columns]
     lines = [title, ""]
     lines += [f"- {n}" for n in notes]
