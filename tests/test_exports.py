@@ -32,6 +32,9 @@ NO_SLEAP_CSV = "no SLEAP analysis CSV reader yet"
 NO_ANIPOSE = "no anipose 3-D reader yet (plane fit, vertical from the engine)"
 KINOVEA_MS = ("Kinovea's unit-less Time is read as whole milliseconds only (other time codes "
               "refused or misread)")
+KINOVEA_Y = ("Kinovea's fractional ms are refused, and its image-space export (pixels, y "
+             "down, no header sign of it) is read as y up: the engine comes out mirrored (the "
+             "counterweight hanging above its hinge)")
 TRACKER_DEG = "Tracker θ without a unit is always read as degrees (radian preference misread)"
 GENERIC_RAD = "a generic angle column without a unit is read as rad (degrees refused)"
 GENERIC_S = "a generic time column without a unit is read as s"
@@ -91,6 +94,8 @@ CASES = [
     Case("kinovea_frames_origin.csv", "inferred", xfail=KINOVEA_MS),
     Case("kinovea_frames_comma.csv", "keyword", {"time_unit": "frames"}, xfail=NO_KEYWORD),
     Case("kinovea_frames_comma.csv", "inferred", xfail=KINOVEA_MS),
+    Case("kinovea_image_space_px.csv", "keyword", {"time_unit": "ms"}, xfail=NO_KEYWORD),
+    Case("kinovea_image_space_px.csv", "inferred", xfail=KINOVEA_Y),
     Case("kinovea_hundredth_min.csv", "refused", refused=("Time",)),
     # Tracker
     Case("tracker_protractor_deg.txt", "user"),

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .shot import ROLES, angles_of, filmed
+from .shot import CAMERA, ROLES, angles_of, filmed
 from .truth import Truth, rng_for
 
 SOURCE = ("Kinovea/Kinovea: Kinovea.ScreenManager/Exporters/Spreadsheet/"
@@ -49,6 +49,7 @@ ANGLE_TOOL = {"pivot": ("Beam", "o"), "spigot": ("Beam", "a"), "hinge": ("Beam",
 ANGLE_POINTS = {"pivot": "Beam/o", "spigot": "Beam/a", "hinge": "Beam/b",
                 "counterweight": "Weight", "projectile": "Stone"}
 NOISE_M = 0.003
+NOISE_PX = 0.3
 
 #: Locales: (decimal mark, list separator) as CSVHelper chooses them.
 LOCALES = {"en-US": (".", ","), "fr-FR": (",", ";"), "de-DE point": (".", ";"),
@@ -84,19 +85,24 @@ def time_values(frames: np.ndarray, fps: float, code: str, version: str) -> np.n
 
 
 def export(name: str, fps: float, code: str, version: str, locale: str, origin: float,
-           objects: dict[str, tuple[str, str]]) -> tuple[str, np.ndarray, dict]:
-    """The file's text, the true time (s from the origin) of each row, and the angles."""
+           objects: dict[str, tuple[str, str]], space: str = "world"
+           ) -> tuple[str, np.ndarray, dict]:
+    """The file's text, the true time (s from the origin) of each row, and the angles.
+    ``space``: "world" (calibrated m, y up) or "image" (pixels from the top-left, y down)."""
     rng = rng_for(name)
     shot = filmed(fps)
     decimal, sep = LOCALES[locale]
     n = len(shot.t)
     written: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    noise = NOISE_M if space == "world" else NOISE_PX
     for role in ROLES:
         x, y = shot.points[role]
-        xs = np.array([np.float32(v) for v in x + rng.normal(0, NOISE_M, n)], dtype=float)
-        ys = np.array([np.float32(v) for v in y + rng.normal(0, NOISE_M, n)], dtype=float)
-        # the values as written (7 significant digits) are the truth's
-        written[role] = (np.array([_g7(v) for v in xs]), np.array([_g7(v) for v in ys]))
+        if space == "image":
+            x, y = CAMERA.to_pixels(x, y)
+        # the values as written (single precision, 7 significant digits) are the truth's
+        xs = [_g7(v) for v in x + rng.normal(0, noise, n)]
+        ys = [_g7(v) for v in y + rng.normal(0, noise, n)]
+        written[role] = (np.array(xs), np.array(ys))
     rel = shot.frame - origin
     times = time_values(rel, fps, code, version)
     header = ['"Time"']
@@ -113,7 +119,7 @@ def export(name: str, fps: float, code: str, version: str, locale: str, origin: 
             for v in (x[k], y[k]):
                 cells.append("" if not np.isfinite(v) else f'"{net_single(v, decimal)}"')
         lines.append(sep.join(cells))
-    angles = angles_of(written, y_up=True, reference=shot.angles)
+    angles = angles_of(written, y_up=space == "world", reference=shot.angles)
     return "\r\n".join(lines) + "\r\n", rel / fps, angles
 
 
@@ -135,6 +141,8 @@ CASES = [
      "Frames, origin at the trigger: negative frame numbers before it"),
     ("kinovea_frames_comma.csv", 120.0, "frames", "2023.1", "en-US comma", 0.0, TRACKS,
      "Frames, decimal comma preference on an English system: ';' separator"),
+    ("kinovea_image_space_px.csv", 240.0, "ms", "2024.1", "en-US", 0.0, TRACKS,
+     "Milliseconds; the image-space preference: pixels from the top-left corner, y down"),
     ("kinovea_hundredth_min.csv", 240.0, "hundredth_min", "2024.1", "en-US", 0.0, TRACKS,
      "HundredthOfMinutes: whole ms / 600, no unit (no keyword for it: to be refused)"),
 ]
@@ -148,7 +156,9 @@ def write(folder: Path) -> list[Truth]:
     for name, fps, code, version, locale, origin, objects, note in CASES:
         shot = filmed(fps)
         origin_frame = round(shot.trigger_frame) if origin is None else origin
-        text, t, angles = export(name, fps, code, version, locale, origin_frame, objects)
+        space = "image" if "image_space" in name else "world"
+        text, t, angles = export(name, fps, code, version, locale, origin_frame, objects,
+                                 space)
         (folder / name).write_bytes(text.encode("utf-8"))
         points = ANGLE_POINTS if objects is ANGLE_TOOL else TRACK_POINTS
         dec, sep = LOCALES[locale]
@@ -156,9 +166,10 @@ def write(folder: Path) -> list[Truth]:
             name=name, tool="kinovea", version=version + ("" if version >= "2025.2" else
                                                            " (2023.1-2025.1)"),
             layout=f"trajectory CSV, quoted cells, separator '{sep}', decimal '{dec}', CRLF; "
-                   f"Time in {TIME_CODES[code]} without a unit; calibrated m, y up",
+                   f"Time in {TIME_CODES[code]} without a unit; "
+                   + ("calibrated m, y up" if space == "world" else "pixels, y down"),
             source=SOURCE, fps=fps, t=t, angles=angles, time_code=TIME_CODES[code],
-            time_stated=False, length_unit="m (y up)",
+            time_stated=False, length_unit="m (y up)" if space == "world" else "px (y down)",
             read={"fps": fps, "points": points}, t_tol=1e-6, angle_tol=1e-5,
             notes=[note] + ([f"time origin at frame {origin_frame:g} (the trigger)"]
                             if origin is None else [])))
