@@ -27,9 +27,12 @@ ANGLES = ("theta", "psi", "phi")
 
 # Why a case fails today (the reader or the keyword it needs does not exist yet).
 NO_KEYWORD = "read_log has no time_unit / angle_unit / individual keyword yet"
-NO_H5 = "no HDF5 reader yet (DeepLabCut .h5, SLEAP analysis HDF5)"
-NO_SLEAP_CSV = "no SLEAP analysis CSV reader yet"
-NO_ANIPOSE = "no anipose 3-D reader yet (plane fit, vertical from the engine)"
+NO_H5 = ("read_log reads no HDF5 file yet (readers/deeplabcut.read_deeplabcut_h5 and "
+         "readers/sleap.read_sleap_h5 exist, not dispatched)")
+NO_SLEAP_CSV = ("read_log does not recognise SLEAP's analysis CSV yet (readers/sleap."
+                "read_sleap_csv exists, not dispatched)")
+NO_ANIPOSE = ("read_log does not recognise anipose's 3-D CSV yet (readers/anipose."
+              "read_anipose exists, not dispatched)")
 KINOVEA_MS = ("Kinovea's unit-less Time is read as whole milliseconds only (other time codes "
               "refused or misread)")
 KINOVEA_Y = ("Kinovea's fractional ms are refused, and its image-space export (pixels, y "
@@ -196,3 +199,160 @@ def test_upconverted_rate_is_noted(exports, name: str) -> None:
     truth = truths[name]
     df = _read(folder, truth, Case(name, "note"))
     assert any("60" in note and "repeat" in note for note in df.attrs["repairs"])
+
+
+# ---------------------------------------------------------------- the readers, one by one
+# Phase 2 of issue 14: readers for the layouts above, tested on the fixtures before
+# read_log dispatches to them (each case flips its read_log case above once wired).
+
+
+def _numbered(path):
+    from trebuchet.ingest.readers.table import read_text, split_lines
+
+    return split_lines(read_text(path))
+
+
+def _read_sleap_h5(path, truth, individual):
+    from trebuchet.ingest.readers.sleap import looks_like_sleap_h5, read_sleap_h5
+
+    assert looks_like_sleap_h5(path)
+    return read_sleap_h5(path, truth.read["fps"], truth.min_likelihood, individual)
+
+
+def _read_sleap_csv(path, truth, individual):
+    from trebuchet.ingest.readers.sleap import looks_like_sleap_csv, read_sleap_csv
+
+    numbered = _numbered(path)
+    assert looks_like_sleap_csv(numbered)
+    return read_sleap_csv(numbered, truth.read["fps"], truth.min_likelihood, individual)
+
+
+def _read_dlc_h5(path, truth, individual):
+    from trebuchet.ingest.readers.deeplabcut import read_deeplabcut_h5
+
+    return read_deeplabcut_h5(path, truth.read["fps"], truth.min_likelihood, individual)
+
+
+def _read_dlc_csv(path, truth, individual):
+    from trebuchet.ingest.readers.deeplabcut import read_deeplabcut
+
+    return read_deeplabcut(_numbered(path), truth.read["fps"], truth.min_likelihood,
+                           individual)
+
+
+def _read_anipose(path, truth, individual):
+    from trebuchet.ingest.readers.anipose import looks_like_anipose, read_anipose
+
+    numbered = _numbered(path)
+    assert looks_like_anipose(numbered)
+    return read_anipose(numbered, truth.read["fps"], truth.read["points"])
+
+
+READERS = {
+    "sleap_two_tracks.analysis.h5": _read_sleap_h5,
+    "sleap_untracked.analysis.h5": _read_sleap_h5,
+    "sleap_two_tracks.analysis.csv": _read_sleap_csv,
+    "sleap_untracked.analysis.csv": _read_sleap_csv,
+    "dlc_single.h5": _read_dlc_h5,
+    "dlc_multi_el.h5": _read_dlc_h5,
+    "dlc_multi_one.h5": _read_dlc_h5,
+    "dlc_multi.csv": _read_dlc_csv,
+    "anipose_pose3d.csv": _read_anipose,
+}
+
+
+def _source_angles(path, source, points):
+    """(t, angles) of a reader's LogSource as read_log computes them from the points, rows
+    without any angle left out."""
+    from trebuchet.ingest.geometry.points import point_angles, resolve_points
+
+    chosen = resolve_points(source.point_tracks, dict(points))
+    angles = point_angles({r: c.data()[:2] for r, c in chosen.items()})
+    keep = np.zeros(len(source.t), dtype=bool)
+    for a in ANGLES:
+        keep |= np.isfinite(angles[a])
+    return source.t[keep], {a: angles[a][keep] for a in ANGLES}
+
+
+@pytest.mark.parametrize("name", sorted(READERS))
+def test_reader(exports, name: str) -> None:
+    folder, truths = exports
+    if name not in truths:
+        pytest.skip("h5py and tables (PyTables) are needed to write the HDF5 fixtures")
+    truth = truths[name]
+    path = folder / name
+    source = READERS[name](path, truth, truth.read.get("individual"))
+    t, angles = _source_angles(path, source, truth.read["points"])
+    assert len(t) == len(truth.t)
+    assert np.max(np.abs(t - truth.t)) <= truth.t_tol
+    for a in ANGLES:
+        want = truth.angles[a]
+        assert np.array_equal(np.isnan(angles[a]), np.isnan(want)), a
+        ok = np.isfinite(want)
+        err = np.max(np.abs(angles[a][ok] - want[ok]))
+        assert err <= truth.angle_tol, f"{name}, {a}: off by {err:.3g} rad"
+
+
+@pytest.mark.parametrize("name", [n for n in sorted(READERS)
+                                  if n.startswith(("sleap_two", "dlc_multi."))
+                                  or n == "dlc_multi_el.h5"])
+def test_reader_refuses_without_individual(exports, name: str) -> None:
+    folder, truths = exports
+    if name not in truths:
+        pytest.skip("h5py and tables (PyTables) are needed to write the HDF5 fixtures")
+    truth = truths[name]
+    with pytest.raises(TrebuchetInputError) as err:
+        READERS[name](folder / name, truth, None)
+    for who in truth.individuals:
+        assert repr(who) in str(err.value)
+
+
+@pytest.mark.parametrize("name, individual, words", [
+    ("sleap_two_tracks.analysis.csv", "track_7", ("track_7", "'track_0'", "'track_1'")),
+    ("dlc_multi.csv", "ind3", ("ind3", "'ind1'", "'ind2'")),
+])
+def test_reader_names_an_unknown_individual(exports, name, individual, words) -> None:
+    folder, truths = exports
+    with pytest.raises(TrebuchetInputError) as err:
+        READERS[name](folder / name, truths[name], individual)
+    for word in words:
+        assert word in str(err.value)
+
+
+def test_single_animal_file_refuses_an_individual(exports) -> None:
+    from trebuchet.ingest.readers.deeplabcut import read_deeplabcut
+
+    folder, truths = exports
+    path = folder / "dlc_single.csv"
+    with pytest.raises(TrebuchetInputError, match="single-animal"):
+        read_deeplabcut(_numbered(path), 120.0, 0.6, "ind1")
+
+
+def test_anipose_needs_the_four_engine_points(exports) -> None:
+    from trebuchet.ingest.readers.anipose import read_anipose
+
+    folder, _ = exports
+    path = folder / "anipose_pose3d.csv"
+    with pytest.raises(TrebuchetInputError, match="hinge") as err:
+        read_anipose(_numbered(path), 100.0, {"pivot": "axle", "spigot": "arm_tip"})
+    assert "weight" in str(err.value)     # the joints are listed
+
+
+def test_anipose_refuses_points_off_any_plane(exports, tmp_path) -> None:
+    from trebuchet.ingest.readers.anipose import read_anipose
+
+    folder, truths = exports
+    text = (folder / "anipose_pose3d.csv").read_text().splitlines()
+    header = text[0].split(",")
+    z = header.index("stone_z")
+    rng = np.random.default_rng(1)
+    rows = []
+    for line in text[1:]:
+        cells = line.split(",")
+        if cells[z]:
+            cells[z] = repr(float(cells[z]) + rng.normal(0, 3000.0))
+        rows.append(",".join(cells))
+    path = tmp_path / "bent.csv"
+    path.write_text("\n".join([text[0], *rows]) + "\n")
+    with pytest.raises(TrebuchetInputError, match="plane"):
+        read_anipose(_numbered(path), 100.0, truths["anipose_pose3d.csv"].read["points"])

@@ -1,6 +1,6 @@
 """Plain CSV angle logs, as a user writes them from a spreadsheet or a script.
 
-Layout (the package's own generic format, ``ingest/formats_generic.py``): a header row
+Layout (the package's own generic format, ``ingest/readers/generic.py``): a header row
 ``t`` / ``time`` / ``frame`` and the angle columns, units in parentheses when the writer
 states them. The ambiguous ones here state none: degrees without ``(deg)`` and a time in
 ms without ``(ms)``.
@@ -16,7 +16,7 @@ import numpy as np
 from .shot import filmed, near_branch
 from .truth import Truth, rng_for
 
-SOURCE = "trebuchet: ingest/formats_generic.py (the package's plain CSV)"
+SOURCE = "trebuchet: ingest/readers/generic.py (the package's plain CSV)"
 
 
 def angle_rows(name: str, fps: float, repeat: int = 1, sd_deg: float = 0.1):
