@@ -40,7 +40,8 @@ KINOVEA_Y = ("Kinovea's fractional ms are refused, and its image-space export (p
              "counterweight hanging above its hinge)")
 TRACKER_DEG = "Tracker θ without a unit is always read as degrees (radian preference misread)"
 GENERIC_RAD = "a generic angle column without a unit is read as rad (degrees refused)"
-GENERIC_S = "a generic time column without a unit is read as s"
+GENERIC_S = ("a generic time column without a unit is read as s (here refused: fps=240 disagrees "
+             "with its steps)")
 REPEATS = "runs of more than two identical rows (up-converted video) are kept"
 MIN_LIKELIHOOD = "min_likelihood defaults to 0.9, the issue asks 0.6"
 
