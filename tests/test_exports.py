@@ -35,6 +35,8 @@ NO_ANIPOSE = ("read_log does not recognise anipose's 3-D CSV yet (readers/anipos
               "read_anipose exists, not dispatched)")
 KINOVEA_MS = ("Kinovea's unit-less Time is read as whole milliseconds only (other time codes "
               "refused or misread)")
+KINOVEA_FRAMES = ("without fps, Kinovea's frame numbers are read as whole milliseconds: wrong "
+                  "times, no error (the issue's case)")
 KINOVEA_Y = ("Kinovea's fractional ms are refused, and its image-space export (pixels, y "
              "down, no header sign of it) is read as y up: the engine comes out mirrored (the "
              "counterweight hanging above its hinge)")
@@ -96,6 +98,8 @@ CASES = [
     Case("kinovea_us.csv", "inferred", xfail=KINOVEA_MS),
     Case("kinovea_frames_origin.csv", "keyword", {"time_unit": "frames"}, xfail=NO_KEYWORD),
     Case("kinovea_frames_origin.csv", "inferred", xfail=KINOVEA_MS),
+    Case("kinovea_frames_origin.csv", "no-fps", drop=("fps",), refused=("fps",),
+         xfail=KINOVEA_FRAMES),
     Case("kinovea_frames_comma.csv", "keyword", {"time_unit": "frames"}, xfail=NO_KEYWORD),
     Case("kinovea_frames_comma.csv", "inferred", xfail=KINOVEA_MS),
     Case("kinovea_image_space_px.csv", "keyword", {"time_unit": "ms"}, xfail=NO_KEYWORD),
