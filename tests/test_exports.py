@@ -5,8 +5,8 @@ Each file is written at test time, in the layout its tool writes (see the writer
 and docs/formats.md), from the simulated shot of the paper's engine. A case reads one file
 the way a user would (``fps``, ``points`` or ``columns``, as the file cannot say them), and
 the ambiguous ones both ways: the unit or the individual stated by keyword, and inferred
-from the file. Cases that fail today because their reader or keyword does not exist yet
-are strict xfails: each flips to a failure (to be unmarked) the day it passes.
+from the file. A case that cannot pass yet is a strict xfail naming the missing piece
+(``Case.xfail``): it flips to a failure (to be unmarked) the day it passes.
 """
 
 from __future__ import annotations
@@ -24,29 +24,6 @@ from tests.exports.truth import Truth
 from trebuchet.errors import TrebuchetInputError
 
 ANGLES = ("theta", "psi", "phi")
-
-# Why a case fails today (the reader or the keyword it needs does not exist yet).
-NO_KEYWORD = "read_log has no time_unit / angle_unit / individual keyword yet"
-NO_H5 = ("read_log reads no HDF5 file yet (readers/deeplabcut.read_deeplabcut_h5 and "
-         "readers/sleap.read_sleap_h5 exist, not dispatched)")
-NO_SLEAP_CSV = ("read_log does not recognise SLEAP's analysis CSV yet (readers/sleap."
-                "read_sleap_csv exists, not dispatched)")
-NO_ANIPOSE = ("read_log does not recognise anipose's 3-D CSV yet (readers/anipose."
-              "read_anipose exists, not dispatched)")
-KINOVEA_MS = ("Kinovea's unit-less Time is read as whole milliseconds only (other time codes "
-              "refused or misread)")
-KINOVEA_FRAMES = ("without fps, Kinovea's frame numbers are read as whole milliseconds: wrong "
-                  "times, no error (the issue's case)")
-KINOVEA_Y = ("Kinovea's fractional ms are refused, and its image-space export (pixels, y "
-             "down, no header sign of it) is read as y up: the engine comes out mirrored (the "
-             "counterweight hanging above its hinge)")
-TRACKER_DEG = "Tracker θ without a unit is always read as degrees (radian preference misread)"
-GENERIC_RAD = "a generic angle column without a unit is read as rad (degrees refused)"
-GENERIC_S = ("a generic time column without a unit is read as s (here refused: fps=240 disagrees "
-             "with its steps)")
-REPEATS = "runs of more than two identical rows (up-converted video) are kept"
-MIN_LIKELIHOOD = "min_likelihood defaults to 0.9, the issue asks 0.6"
-
 
 @dataclass
 class Case:
@@ -68,57 +45,55 @@ CASES = [
     # DeepLabCut
     Case("dlc_single.csv", "user"),
     Case("dlc_single.csv", "min_likelihood", {"min_likelihood": 0.6}),
-    Case("dlc_single.h5", "user", xfail=NO_H5),
-    Case("dlc_multi.csv", "individual", xfail=NO_KEYWORD),
+    Case("dlc_single.h5", "user"),
+    Case("dlc_multi.csv", "individual"),
     Case("dlc_multi.csv", "no-individual", drop=("individual",), refused=("ind1", "ind2")),
-    Case("dlc_multi_el.h5", "individual", xfail=NO_H5),
-    Case("dlc_multi_el.h5", "no-individual", drop=("individual",), refused=("ind1", "ind2"),
-         xfail=NO_H5),
-    Case("dlc_multi_one.h5", "only-individual", xfail=NO_H5),
-    Case("phone_upconverted_dlc.csv", "user", xfail=REPEATS),
+    Case("dlc_multi_el.h5", "individual"),
+    Case("dlc_multi_el.h5", "no-individual", drop=("individual",), refused=("ind1", "ind2")),
+    Case("dlc_multi_one.h5", "only-individual"),
+    Case("phone_upconverted_dlc.csv", "user"),
     # SLEAP
-    Case("sleap_two_tracks.analysis.h5", "individual", xfail=NO_H5),
+    Case("sleap_two_tracks.analysis.h5", "individual"),
     Case("sleap_two_tracks.analysis.h5", "no-individual", drop=("individual",),
-         refused=("track_0", "track_1"), xfail=NO_H5),
-    Case("sleap_two_tracks.analysis.csv", "individual", xfail=NO_SLEAP_CSV),
+         refused=("track_0", "track_1")),
+    Case("sleap_two_tracks.analysis.csv", "individual"),
     Case("sleap_two_tracks.analysis.csv", "no-individual", drop=("individual",),
-         refused=("track_0", "track_1"), xfail=NO_SLEAP_CSV),
-    Case("sleap_untracked.analysis.h5", "user", xfail=NO_H5),
-    Case("sleap_untracked.analysis.csv", "user", xfail=NO_SLEAP_CSV),
+         refused=("track_0", "track_1")),
+    Case("sleap_untracked.analysis.h5", "user"),
+    Case("sleap_untracked.analysis.csv", "user"),
     # anipose
-    Case("anipose_pose3d.csv", "user", xfail=NO_ANIPOSE),
+    Case("anipose_pose3d.csv", "user"),
     # Kinovea: every time code, stated by keyword and inferred from the frame pattern
-    Case("kinovea_2024_classic_s.csv", "keyword", {"time_unit": "s"}, xfail=NO_KEYWORD),
-    Case("kinovea_2024_classic_s.csv", "inferred", xfail=KINOVEA_MS),
-    Case("kinovea_2025_classic_s_fr.csv", "keyword", {"time_unit": "s"}, xfail=NO_KEYWORD),
-    Case("kinovea_2025_classic_s_fr.csv", "inferred", xfail=KINOVEA_MS),
-    Case("kinovea_ms_fraction_de.csv", "keyword", {"time_unit": "ms"}, xfail=NO_KEYWORD),
-    Case("kinovea_ms_fraction_de.csv", "inferred", xfail=KINOVEA_MS),
-    Case("kinovea_us.csv", "keyword", {"time_unit": "us"}, xfail=NO_KEYWORD),
-    Case("kinovea_us.csv", "inferred", xfail=KINOVEA_MS),
-    Case("kinovea_frames_origin.csv", "keyword", {"time_unit": "frames"}, xfail=NO_KEYWORD),
-    Case("kinovea_frames_origin.csv", "inferred", xfail=KINOVEA_MS),
-    Case("kinovea_frames_origin.csv", "no-fps", drop=("fps",), refused=("fps",),
-         xfail=KINOVEA_FRAMES),
-    Case("kinovea_frames_comma.csv", "keyword", {"time_unit": "frames"}, xfail=NO_KEYWORD),
-    Case("kinovea_frames_comma.csv", "inferred", xfail=KINOVEA_MS),
-    Case("kinovea_image_space_px.csv", "keyword", {"time_unit": "ms"}, xfail=NO_KEYWORD),
-    Case("kinovea_image_space_px.csv", "inferred", xfail=KINOVEA_Y),
+    Case("kinovea_2024_classic_s.csv", "keyword", {"time_unit": "s"}),
+    Case("kinovea_2024_classic_s.csv", "inferred"),
+    Case("kinovea_2025_classic_s_fr.csv", "keyword", {"time_unit": "s"}),
+    Case("kinovea_2025_classic_s_fr.csv", "inferred"),
+    Case("kinovea_ms_fraction_de.csv", "keyword", {"time_unit": "ms"}),
+    Case("kinovea_ms_fraction_de.csv", "inferred"),
+    Case("kinovea_us.csv", "keyword", {"time_unit": "us"}),
+    Case("kinovea_us.csv", "inferred"),
+    Case("kinovea_frames_origin.csv", "keyword", {"time_unit": "frames"}),
+    Case("kinovea_frames_origin.csv", "inferred"),
+    Case("kinovea_frames_origin.csv", "no-fps", drop=("fps",), refused=("fps",)),
+    Case("kinovea_frames_comma.csv", "keyword", {"time_unit": "frames"}),
+    Case("kinovea_frames_comma.csv", "inferred"),
+    Case("kinovea_image_space_px.csv", "keyword", {"time_unit": "ms"}),
+    Case("kinovea_image_space_px.csv", "inferred"),
     Case("kinovea_hundredth_min.csv", "refused", refused=("Time",)),
     # Tracker
     Case("tracker_protractor_deg.txt", "user"),
-    Case("tracker_protractor_deg.txt", "keyword", {"angle_unit": "deg"}, xfail=NO_KEYWORD),
-    Case("tracker_protractor_rad.txt", "keyword", {"angle_unit": "rad"}, xfail=NO_KEYWORD),
-    Case("tracker_protractor_rad.txt", "inferred", xfail=TRACKER_DEG),
+    Case("tracker_protractor_deg.txt", "keyword", {"angle_unit": "deg"}),
+    Case("tracker_protractor_rad.txt", "keyword", {"angle_unit": "rad"}),
+    Case("tracker_protractor_rad.txt", "inferred"),
     Case("tracker_protractor_deg_comma.txt", "user"),
     Case("tracker_pointmass.txt", "user"),
     # plain CSV
     Case("generic_deg.csv", "user"),
-    Case("generic_nounit_deg.csv", "keyword", {"angle_unit": "deg"}, xfail=NO_KEYWORD),
-    Case("generic_nounit_deg.csv", "inferred", xfail=GENERIC_RAD),
-    Case("generic_time_ms.csv", "keyword", {"time_unit": "ms"}, xfail=NO_KEYWORD),
-    Case("generic_time_ms.csv", "inferred", xfail=GENERIC_S),
-    Case("phone_upconverted_generic.csv", "user", xfail=REPEATS),
+    Case("generic_nounit_deg.csv", "keyword", {"angle_unit": "deg"}),
+    Case("generic_nounit_deg.csv", "inferred"),
+    Case("generic_time_ms.csv", "keyword", {"time_unit": "ms"}),
+    Case("generic_time_ms.csv", "inferred"),
+    Case("phone_upconverted_generic.csv", "user"),
 ]
 
 
@@ -182,7 +157,6 @@ def test_every_fixture_has_a_case(exports) -> None:
     assert {c for c in cases if not c.endswith(".h5")} <= set(truths)
 
 
-@pytest.mark.xfail(strict=True, reason=MIN_LIKELIHOOD)
 def test_min_likelihood_default_is_deeplabcuts() -> None:
     """Below 0.6 (DeepLabCut's own plotting cut-off, ``pcutoff``) a position is a gap."""
     default = inspect.signature(trebuchet.read_log).parameters["min_likelihood"].default
@@ -196,7 +170,6 @@ def test_low_likelihood_gaps_are_reported(exports) -> None:
     assert any("likelihood" in note for note in df.attrs["repairs"])
 
 
-@pytest.mark.xfail(strict=True, reason=REPEATS)
 @pytest.mark.parametrize("name", ["phone_upconverted_dlc.csv", "phone_upconverted_generic.csv"])
 def test_upconverted_rate_is_noted(exports, name: str) -> None:
     """The repeated images are reported with the effective frame rate (60 fps)."""
