@@ -1,18 +1,27 @@
-"""Read an angle log (generic CSV or a tracking tool's export) into the paper's angles.
+"""Read an angle or point log (generic CSV or a tracking tool's export) into the paper's
+angles.
 
-:func:`read_log` recognises the format from the file's content (never its extension):
+:func:`read_log` recognises the format from the file's content (never its extension;
+docs/formats.md lists every tool and layout):
 
-* ``"tracker"``: an export of Tracker (physlets.org/tracker), see :mod:`.formats_tracker`;
-* ``"kinovea"``: a Kinovea trajectory CSV, see :mod:`.formats_kinovea`;
-* ``"deeplabcut"``: a DeepLabCut CSV, see :mod:`.formats_deeplabcut`;
-* ``"generic"``: anything else, see :mod:`.formats_generic`.
+* ``"sleap"``: SLEAP's analysis HDF5 or CSV, see :mod:`..readers.sleap`;
+* ``"deeplabcut"``: a DeepLabCut CSV or .h5, see :mod:`..readers.deeplabcut`;
+* ``"anipose"``: anipose's 3-D CSV, see :mod:`..readers.anipose`;
+* ``"tracker"``: an export of Tracker (physlets.org/tracker), see :mod:`..readers.tracker`;
+* ``"kinovea"``: a Kinovea trajectory CSV, see :mod:`..readers.kinovea`;
+* ``"generic"``: anything else, see :mod:`..readers.generic`.
 
+Units the file does not state are decided (``time_unit=``, ``angle_unit=``, else from the
+frame steps and the values, see :mod:`..readers.time_units` and :mod:`.units`), each
+decision a sentence; :func:`.scene_check.scene_check` checks them against the scene.
 Then every log gets the same checks and repairs, in this order: the time must not
 decrease (error naming the row); rows without any angle are dropped; rows repeating the
 time of the row before are merged; absent frames and empty cells are reported (and left
-as gaps: no row is invented, no value interpolated); repeated frames are dropped;
-each angle is unwrapped. Every repair is listed in ``attrs["repairs"]`` and warned
-about as a :class:`~trebuchet.errors.TrebuchetDataWarning`.
+as gaps: no row is invented, no value interpolated); repeated frames (an up-converted
+video's runs of one image) are dropped; each angle is unwrapped. Every repair (and every
+inferred unit) is listed in the result's ``repairs`` (``attrs["log"]``, a
+:class:`.result.ReadLog`) and warned about as a
+:class:`~trebuchet.errors.TrebuchetDataWarning`.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Repairs made to every log, each returning a sentence for the user (or nothing).
 
 Each function works in place on a :class:`ParsedLog` and returns what it did, so
-that :func:`read_log` can list it in ``attrs["repairs"]`` and warn about it.
+that :func:`read_log` can list it in the result's ``repairs`` and warn about it.
 """
 
 from __future__ import annotations

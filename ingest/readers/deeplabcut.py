@@ -18,7 +18,7 @@ Layout::
 * the first column is the frame index; there is no time: ``fps`` is required and
   ``t = frame / fps``;
 * image coordinates in pixels with y pointing **down**: y is negated here so that the
-  positions (and ``attrs["points"]``) have y up;
+  positions (and the result's ``points``) have y up;
 * positions with a likelihood below ``min_likelihood`` become gaps (reported).
 """
 
