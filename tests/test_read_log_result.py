@@ -58,7 +58,7 @@ def test_the_result_is_one_read_log_shared_by_derived_tables(exports):
     ("kinovea_frames_comma.csv", {"time_unit": "frames"}, ("frames (time_unit='frames')",)),
     ("kinovea_image_space_px.csv", {}, ("ms (inferred", "y axis: down, image space")),
     ("tracker_protractor_rad.txt", {}, ("rad (inferred", "Tracker writes its time in s",
-                                        "time confirmed by 'beam/θ''s rate column")),
+                                        "time unit confirmed: the rate column beside 'beam/θ'")),
     ("tracker_protractor_deg.txt", {"angle_unit": "deg"}, ("deg (angle_unit='deg')",)),
     ("generic_deg.csv", {}, ("stated in the header", "angle units stated")),
     ("dlc_single.csv", {}, ("frame numbers", "y axis: down")),
@@ -90,3 +90,13 @@ def test_unknown_units_and_calibration_are_refused(exports):
 def test_a_frame_index_file_takes_no_other_time_unit(exports):
     with pytest.raises(TrebuchetInputError, match=r"dlc_single\.csv: time_unit='ms'"):
         _read(exports, "dlc_single.csv", time_unit="ms")
+
+
+def test_the_refusals_of_an_hdf5_reader_reach_the_user_as_they_are(exports):
+    folder, truths = exports
+    name = "sleap_two_tracks.analysis.h5"
+    if name not in truths:
+        pytest.skip("h5py and tables (PyTables) are needed to write the HDF5 fixtures")
+    with pytest.raises(TrebuchetInputError) as err:
+        trebuchet.read_log(folder / name, fps=120.0)
+    assert str(err.value).startswith(f"{folder / name}: 2 tracks in this file")

@@ -229,6 +229,8 @@ def _read_source(path: str | Path, fps: float | None, min_likelihood: float,
                 source = read_sleap_h5(path, fps, min_likelihood, individual)
             else:
                 source = read_deeplabcut_h5(path, fps, min_likelihood, individual)
+        except TrebuchetInputError:
+            raise
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise TrebuchetInputError(
                 f"is not a text (CSV) file, and starts like an HDF5 file that cannot be "

@@ -68,8 +68,8 @@ def rate_check(t: np.ndarray, angles: dict[str, np.ndarray], labels: dict[str, s
         scaled = rate[both] * factors.get(a, 1.0)
         ratio = float(np.dot(scaled, d[both]) / np.dot(d[both], d[both]))
         if ratio > 0 and 1 / RATE_AGREEMENT <= ratio <= RATE_AGREEMENT:
-            return (f"time confirmed by '{labels[a]}''s rate column: it is d{a}/dt per s "
-                    f"(ratio {ratio:.3g})")
+            return (f"time unit confirmed: the rate column beside '{labels[a]}' is "
+                    f"d{a}/dt per s of the time read (ratio {ratio:.3g})")
         raise TrebuchetInputError(
             f"the rate column beside '{labels[a]}' is {ratio:.4g} × d{a}/dt per s of the "
             "time read: the time is not in s (or the column is no rate of it); state the "

@@ -113,9 +113,14 @@ def _infer(t: np.ndarray, label: str, fps: float | None, tool: str) -> tuple[str
             match.append("frames")
         if len(match) == 1:
             u = match[0]
-            what = ("frame numbers" if u == "frames"
-                    else f"1/{rates[u]:.4g} s in {_SHOWN[u]}")
-            return u, f"inferred: {step} are {what}, the frame period at fps={fps:g}"
+            if u == "frames":
+                return u, (f"inferred: whole numbers in {step} are frame numbers at "
+                           f"fps={fps:g}; as {seen.replace(', ', ', as ')}")
+            mean_rate = 1.0 / (mean * TIME_UNIT_CHOICES[u])
+            rate = min(rates[u], mean_rate, key=lambda r: abs(r / fps - 1.0))
+            others = ", ".join(f"{_SHOWN[v]} {rates[v]:.4g} fps" for v in rates if v != u)
+            return u, (f"inferred: {step} in {_SHOWN[u]} give {rate:.4g} fps, the given "
+                       f"fps={fps:g}; as {others.replace(', ', ', as ')}")
         if not match:
             raise TrebuchetInputError.at(
                 f"column '{label}'", f"its {step} fit no time unit at fps={fps:g} (as {seen}"
@@ -137,8 +142,9 @@ def _infer(t: np.ndarray, label: str, fps: float | None, tool: str) -> tuple[str
     if len(possible) == 1:
         u = possible[0]
         others = ", ".join(f"{_SHOWN[v]} {rates[v]:.4g} fps" for v in rates if v != u)
-        return u, (f"inferred: {step} are {_rate(median * TIME_UNIT_CHOICES[u])} in "
-                   f"{_SHOWN[u]}, a film's rate (as {others}: none)")
+        return u, (f"inferred: {step} in {_SHOWN[u]} give "
+                   f"{_rate(median * TIME_UNIT_CHOICES[u])}, a film's rate; as "
+                   f"{others.replace(', ', ', as ')}, no film's")
     if not possible:
         likely = min(rates, key=lambda u: abs(np.log10(rates[u] / 240.0)))
         raise TrebuchetInputError.at(
