@@ -43,6 +43,10 @@ def test_the_scene_check_finds_the_shot_and_names_a_wrong_factor(exports):
     ms["t"] *= 1000.0
     with pytest.raises(TrebuchetInputError, match=r"generic_deg\.csv: .*time.*ms read as s"):
         scene_check(ms, sc)
+    s = df.copy()
+    s["t"] /= 1000.0
+    with pytest.raises(TrebuchetInputError, match="time.*s read as ms"):
+        scene_check(s, sc)
     deg = df.copy()
     deg["theta"] = np.radians(deg["theta"])
     with pytest.raises(TrebuchetInputError, match="sweep.*rad read as degrees"):
@@ -68,3 +72,18 @@ def test_the_log_options_of_the_command_line():
         log_options(p.parse_args(["log.csv", "--scene", "s.toml", "--min-likelihood", "1.5"]))
     with pytest.raises(SystemExit):
         p.parse_args(["log.csv", "--scene", "s.toml", "--time-unit", "min"])
+
+
+def test_a_log_without_the_start_or_the_fastest_point(exports):
+    sc = scene()
+    df = _read(exports, "generic_deg.csv")
+    moved = np.abs(df["theta"] - df["theta"].iloc[0]) > np.radians(10)
+    late = df[moved.to_numpy()].reset_index(drop=True)  # starts mid-swing
+    found = scene_check(late, sc)
+    assert not found.checked and "does not start at rest" in found.note
+    fastest = int(np.argmax(np.abs(np.gradient(df["theta"], df["t"]))))
+    early = df.iloc[:fastest - 20].reset_index(drop=True)  # ends before the fastest point
+    found = scene_check(early, sc)
+    assert found.checked and 0.8 < found.time_s / found.time_sim_s < 1.25
+    still = df.iloc[:30].reset_index(drop=True)
+    assert not scene_check(still, sc).checked

@@ -15,7 +15,11 @@ the log does not show by itself:
 Each must lie within a broad band of the simulation's (:data:`BAND`: a different engine or
 release gives tens of per cent, a wrong unit a factor of 57, 1000 or the frame rate).
 Outside the band it is an error naming the likely factor; inside, a :class:`SceneCheck`
-with both and a sentence for the notes.
+with both and a sentence for the notes. A log that ends before the beam's fastest point
+is compared with the simulation over as long a stretch after the departure; a log that
+does not start at rest (θ drifting by more than :data:`REST_SHARE` of its sweep over its
+first :data:`REST_TIME` s) or whose beam never departs is not checked (a
+:class:`SceneCheck` with ``checked=False`` saying why).
 """
 
 from __future__ import annotations
@@ -34,8 +38,11 @@ from trebuchet.model.simulate import simulate
 
 #: deg: θ's distance from its rest value that marks the beam's departure.
 DEPARTURE_DEG = 2.0
-#: Frames at the start of a log taken as the engine at rest (at most).
+#: The start of a log taken as the engine at rest: this many s, at least so many frames.
+REST_TIME = 0.1
 REST_FRAMES = 10
+#: Largest drift of θ over those frames, as a share of its whole sweep, for a rest.
+REST_SHARE = 0.01
 #: Broad band of the ratio measured / simulated, for the sweep and for the time.
 BAND = (0.5, 2.0)
 #: s: the simulation's output step.
@@ -45,8 +52,11 @@ SIM_STEP = 1e-4
 @dataclass(frozen=True)
 class SceneCheck:
     """The log's beam against the scene's simulation: sweep (deg) from rest to the fastest
-    point, time (s) from departure to the fastest point; ``note`` says it in a sentence."""
+    point, time (s) from departure to the fastest point; ``note`` says it in a sentence.
+    ``checked`` is False (and the numbers NaN) when the log does not show that stretch
+    (it starts after the departure, or the beam never leaves rest): nothing was checked."""
 
+    checked: bool
     sweep_deg: float
     sweep_sim_deg: float
     time_s: float
@@ -63,25 +73,31 @@ def scene_check(log: pd.DataFrame, scene: Scene | str, *, band: tuple[float, flo
     t = log["t"].to_numpy(dtype=float)
     theta = log["theta"].to_numpy(dtype=float)
     ok = np.isfinite(t) & np.isfinite(theta)
-    measured = _stretch(t[ok], theta[ok])
-    if measured is None:
-        raise TrebuchetInputError(
-            f"{name}: the beam does not leave its rest pose by {DEPARTURE_DEG:g}° and reach a "
-            "fastest point in the log; nothing to check against the scene")
+    t, theta = t[ok], theta[ok]
+    why = _not_at_rest(t, theta)
+    if why:
+        nan = float("nan")
+        return SceneCheck(False, nan, nan, nan, nan, f"the swing was not checked against the "
+                          f"scene: {why}")
+    rest = float(np.median(theta[:_rest_window(t)]))
+    measured = _stretch(t, theta, rest)
     sim = simulate(scene, dt=SIM_STEP)
-    simulated = _stretch(sim["t"].to_numpy(dtype=float), sim["theta"].to_numpy(dtype=float),
-                         rest=float(sim["theta"].iloc[0]),
-                         rate=sim["theta_d"].to_numpy(dtype=float))
-    if simulated is None:
-        raise TrebuchetInputError(f"{name}: the scene's beam does not swing")
-    sweep, duration = measured
-    sweep_sim, duration_sim = simulated
+    t_sim = sim["t"].to_numpy(dtype=float)
+    theta_sim = sim["theta"].to_numpy(dtype=float)
+    rate_sim = sim["theta_d"].to_numpy(dtype=float)
+    if measured[2]:  # the log ends before its fastest point: the simulation too
+        departure = _departure(t_sim, theta_sim, float(theta_sim[0]))
+        keep = t_sim <= departure + (t[-1] - _departure(t, theta, rest))
+        t_sim, theta_sim, rate_sim = t_sim[keep], theta_sim[keep], rate_sim[keep]
+    simulated = _stretch(t_sim, theta_sim, float(theta_sim[0]), rate=rate_sim)
+    sweep, duration, _ = measured
+    sweep_sim, duration_sim, _ = simulated
     low, high = band
     for what, got, want, unit, factors in (
             ("sweep from rest", sweep, sweep_sim, "°", {180 / math.pi: "degrees read as rad",
-                                               math.pi / 180: "rad read as degrees"}),
+                                                         math.pi / 180: "rad read as degrees"}),
             ("time from its departure", duration, duration_sim, " s", _time_factors(log))):
-        ratio = got / want
+        ratio = got / want if want > 0 else math.inf
         if low <= ratio <= high:
             continue
         likely = [why for f, why in factors.items() if 0.7 <= ratio / f <= 1.4]
@@ -95,7 +111,31 @@ def scene_check(log: pd.DataFrame, scene: Scene | str, *, band: tuple[float, flo
     note = (f"the log's swing is the scene's: the beam sweeps {sweep:.4g}° (scene "
             f"{sweep_sim:.4g}°) from rest to its fastest point, {duration:.4g} s (scene "
             f"{duration_sim:.4g} s) after leaving rest by {DEPARTURE_DEG:g}°")
-    return SceneCheck(sweep, sweep_sim, duration, duration_sim, note)
+    return SceneCheck(True, sweep, sweep_sim, duration, duration_sim, note)
+
+
+def _rest_window(t: np.ndarray) -> int:
+    """Frames taken as the engine at rest: the first :data:`REST_TIME` s, at least
+    :data:`REST_FRAMES` and at most a tenth of the log (a time 1000 times too short)."""
+    return max(REST_FRAMES, min(int(np.searchsorted(t, t[0] + REST_TIME)), t.size // 10))
+
+
+def _not_at_rest(t: np.ndarray, theta: np.ndarray) -> str | None:
+    """Why the log shows no departure from rest (None when it does): θ drifts over the
+    first frames (the mean of their second half against their first) by more than
+    :data:`REST_SHARE` of its whole sweep, or never leaves rest."""
+    n = _rest_window(t)
+    if theta.size < 2 * n:
+        return f"fewer than {2 * n} frames with theta"
+    first = theta[:n]
+    drift = abs(float(np.mean(first[n // 2:]) - np.mean(first[:n // 2])))
+    if drift > REST_SHARE * float(np.ptp(theta)):
+        return (f"the log does not start at rest (theta drifts by {math.degrees(drift):.3g}° "
+                f"over its first {t[n - 1] - t[0]:.3g} s)")
+    rest = float(np.median(first))
+    if not (np.abs(theta - rest) > math.radians(DEPARTURE_DEG)).any():
+        return f"the beam never leaves its rest pose by {DEPARTURE_DEG:g}°"
+    return None
 
 
 def _name(log: pd.DataFrame) -> str:
@@ -112,39 +152,35 @@ def _time_factors(log: pd.DataFrame) -> dict[float, str]:
     return out
 
 
-def _stretch(t: np.ndarray, theta: np.ndarray, rest: float | None = None,
-             rate: np.ndarray | None = None) -> tuple[float, float] | None:
-    """(sweep in deg from rest to the fastest point, time in s from the departure to it);
-    dθ/dt from ``theta`` lightly smoothed unless ``rate`` gives it."""
-    if t.size < 5:
-        return None
-    if rest is None:
-        rest = float(np.median(theta[:REST_FRAMES]))
-    gone = np.nonzero(np.abs(theta - rest) > math.radians(DEPARTURE_DEG))[0]
-    if not gone.size or gone[0] == 0:
-        return None
-    k = int(gone[0])
-    # the departure between the two frames around it, linearly
-    a, b = abs(theta[k - 1] - rest), abs(theta[k] - rest)
+def _departure(t: np.ndarray, theta: np.ndarray, rest: float) -> float:
+    """The time θ first lies :data:`DEPARTURE_DEG` from ``rest`` (linear between frames)."""
     target = math.radians(DEPARTURE_DEG)
-    t_dep = t[k - 1] + (t[k] - t[k - 1]) * (target - a) / (b - a) if b > a else t[k]
+    k = int(np.argmax(np.abs(theta - rest) > target))
+    if k == 0:
+        return float(t[0])
+    a, b = abs(theta[k - 1] - rest), abs(theta[k] - rest)
+    return float(t[k - 1] + (t[k] - t[k - 1]) * (target - a) / (b - a) if b > a else t[k])
+
+
+def _stretch(t: np.ndarray, theta: np.ndarray, rest: float, rate: np.ndarray | None = None
+             ) -> tuple[float, float, bool]:
+    """(sweep in deg from ``rest`` to the fastest point, time in s from the departure to it,
+    whether the fastest point is the last frame); dθ/dt from ``theta`` lightly smoothed
+    unless ``rate`` gives it."""
+    departure = _departure(t, theta, rest)
     if rate is None:
         rate = np.gradient(_smoothed(theta, t), t)
-    after = np.arange(t.size) >= k
-    if not after.any():
-        return None
-    fastest = int(np.argmax(np.where(after, np.abs(rate), -np.inf)))
-    if fastest <= k - 1 or fastest >= t.size - 1:
-        return None
-    return (math.degrees(abs(theta[fastest] - rest)), float(t[fastest] - t_dep))
+    fastest = int(np.argmax(np.where(t >= departure, np.abs(rate), -np.inf)))
+    return (math.degrees(abs(theta[fastest] - rest)), float(t[fastest] - departure),
+            fastest >= t.size - 2)
 
 
 def _smoothed(theta: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """θ lightly smoothed (a running mean over ~10 ms) so that its derivative's peak is the
-    beam's, not the noise's."""
+    """θ lightly smoothed (a running mean over ~10 ms, at most a fiftieth of the log) so
+    that its derivative's peak is the beam's, not the noise's."""
     steps = np.diff(t)
     period = float(np.median(steps[steps > 0])) if (steps > 0).any() else 1.0
-    width = max(1, int(round(0.01 / period)))
+    width = max(1, min(int(round(0.01 / period)), theta.size // 50))
     if width < 3:
         return theta
     kernel = np.ones(width) / width
