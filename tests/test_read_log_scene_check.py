@@ -87,3 +87,23 @@ def test_a_log_without_the_start_or_the_fastest_point(exports):
     assert found.checked and 0.8 < found.time_s / found.time_sim_s < 1.25
     still = df.iloc[:30].reset_index(drop=True)
     assert not scene_check(still, sc).checked
+
+
+def test_the_samples_swing_is_their_scenes_despite_noise_and_mislocated_points():
+    """Kinovea's whole ms and 0.01 m, DeepLabCut's points mislocated by 10-40 px with
+    likelihood above the default cut: the beam's fastest point is the beam's, not a spike."""
+    from pathlib import Path
+
+    samples = Path(__file__).parents[1] / "data_samples"
+    dlc = {"pivot": "axle", "spigot": "arm_tip", "hinge": "hinge", "counterweight": "weight",
+           "projectile": "stone"}
+    kin = {"pivot": "Beam/axle", "spigot": "Beam/tip", "hinge": "Beam/hinge",
+           "counterweight": "Weight/centre", "projectile": "Stone/centre"}
+    for name, kwargs in (("horsdal_dlc.csv", {"fps": 120, "points": dlc}),
+                         ("horsdal_kinovea.csv", {"fps": 240, "points": kin})):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            log = trebuchet.read_log(samples / name, **kwargs)
+        found = scene_check(log, samples / "horsdal_large.toml")
+        assert 0.8 < found.sweep_deg / found.sweep_sim_deg < 1.25, name
+        assert 0.8 < found.time_s / found.time_sim_s < 1.25, name

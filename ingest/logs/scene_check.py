@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy.ndimage import median_filter
+from scipy.signal import savgol_filter
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.logs.result import read_log_info
@@ -45,6 +47,10 @@ REST_FRAMES = 10
 REST_SHARE = 0.01
 #: Broad band of the ratio measured / simulated, for the sweep and for the time.
 BAND = (0.5, 2.0)
+#: Frames of the running median that takes out single mislocated points.
+OUTLIER_FRAMES = 5
+#: s: the span of the local fit that gives the log's dθ/dt.
+RATE_WINDOW = 0.05
 #: s: the simulation's output step.
 SIM_STEP = 1e-4
 
@@ -165,24 +171,26 @@ def _departure(t: np.ndarray, theta: np.ndarray, rest: float) -> float:
 def _stretch(t: np.ndarray, theta: np.ndarray, rest: float, rate: np.ndarray | None = None
              ) -> tuple[float, float, bool]:
     """(sweep in deg from ``rest`` to the fastest point, time in s from the departure to it,
-    whether the fastest point is the last frame); dθ/dt from ``theta`` lightly smoothed
-    unless ``rate`` gives it."""
-    departure = _departure(t, theta, rest)
+    whether the fastest point is the last frame); dθ/dt from a local fit to ``theta``
+    (after a running median over :data:`OUTLIER_FRAMES` frames, against a mislocated
+    point) unless ``rate`` gives it."""
     if rate is None:
-        rate = np.gradient(_smoothed(theta, t), t)
+        theta = median_filter(theta, size=OUTLIER_FRAMES, mode="nearest")
+        rate = _rate(theta, t)
+    departure = _departure(t, theta, rest)
     fastest = int(np.argmax(np.where(t >= departure, np.abs(rate), -np.inf)))
     return (math.degrees(abs(theta[fastest] - rest)), float(t[fastest] - departure),
             fastest >= t.size - 2)
 
 
-def _smoothed(theta: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """θ lightly smoothed (a running mean over ~10 ms, at most a fiftieth of the log) so
-    that its derivative's peak is the beam's, not the noise's."""
+def _rate(theta: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """dθ/dt from a Savitzky-Golay fit (quadratic over ~:data:`RATE_WINDOW` s, at most a
+    fifth of the log): the beam's speed peaks over a tenth of a second, the noise's over a
+    frame."""
     steps = np.diff(t)
     period = float(np.median(steps[steps > 0])) if (steps > 0).any() else 1.0
-    width = max(1, min(int(round(0.01 / period)), theta.size // 50))
-    if width < 3:
-        return theta
-    kernel = np.ones(width) / width
-    padded = np.pad(theta, (width // 2, width - 1 - width // 2), mode="edge")
-    return np.convolve(padded, kernel, mode="valid")
+    width = min(int(round(RATE_WINDOW / period)), theta.size // 5)
+    width = max(5, width) | 1
+    if width > theta.size:
+        return np.gradient(theta, t)
+    return savgol_filter(theta, width, 2, deriv=1, delta=period)
