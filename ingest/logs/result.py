@@ -62,8 +62,8 @@ class ReadLog:
     decisions: tuple[str, ...] = ()
     columns: Any = field(default_factory=dict)
     fps: float | None = None
-    frame: np.ndarray | None = None
-    points: Any = None
+    frame: np.ndarray | None = field(default=None, repr=False)
+    points: Any = field(default=None, repr=False)
     point_names: Any = None
     leaves_sling: tuple[float, float] | None = None
 
