@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -92,8 +93,6 @@ def test_a_log_without_the_start_or_the_fastest_point(exports):
 def test_the_samples_swing_is_their_scenes_despite_noise_and_mislocated_points():
     """Kinovea's whole ms and 0.01 m, DeepLabCut's points mislocated by 10-40 px with
     likelihood above the default cut: the beam's fastest point is the beam's, not a spike."""
-    from pathlib import Path
-
     samples = Path(__file__).parents[1] / "data_samples"
     dlc = {"pivot": "axle", "spigot": "arm_tip", "hinge": "hinge", "counterweight": "weight",
            "projectile": "stone"}
@@ -107,3 +106,23 @@ def test_the_samples_swing_is_their_scenes_despite_noise_and_mislocated_points()
         found = scene_check(log, samples / "horsdal_large.toml")
         assert 0.8 < found.sweep_deg / found.sweep_sim_deg < 1.25, name
         assert 0.8 < found.time_s / found.time_sim_s < 1.25, name
+
+
+@pytest.mark.parametrize("name, args, words", [
+    ("kinovea_frames_origin.csv", [], ("kinovea_frames_origin.csv, column 'Time'", "fps=")),
+    ("sleap_two_tracks.analysis.csv", ["--fps", "120"], ("track_0", "track_1")),
+    ("kinovea_hundredth_min.csv", ["--fps", "240"], ("column 'Time'", "time_unit=")),
+])
+def test_a_file_the_reader_refuses_is_one_line_and_status_2(exports, tmp_path, capsys, name,
+                                                            args, words):
+    from trebuchet.cli import main
+
+    folder, _ = exports
+    scene_file = Path(__file__).parents[1] / "data_samples" / "horsdal_large.toml"
+    status = main(["forces", str(folder / name), "--scene", str(scene_file),
+                   "-o", str(tmp_path / "loads.csv"), *args])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and len(err.splitlines()) == 1, err
+    for word in words:
+        assert word in err
+    assert not (tmp_path / "loads.csv").exists()
