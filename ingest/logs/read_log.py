@@ -264,7 +264,7 @@ def _frame_indexed(source: LogSource, fps: float | None, time_unit: str | None) 
         raise TrebuchetInputError(
             f"time_unit={time_unit!r}, but this {source.fmt} file counts frames "
             f"('{source.time_label}'); leave time_unit out and pass fps=")
-    source.decisions.append(f"time: frame numbers ('{source.time_label}') / fps={fps:g}")
+    source.decisions.append(f"time: frame numbers ('{source.time_label}') / fps={fps!r}")
     if source.fmt == "anipose":
         source.decisions.append("y axis: up from the counterweight hanging at rest (anipose's "
                                 "3-D points taken into the engine's plane)")
