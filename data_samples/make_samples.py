@@ -449,8 +449,9 @@ def deeplabcut_sample(index: int) -> Sample:
         f"keypoint is lost (likelihood 0.01–0.3, position off by ~20 px). {fps:g} fps, frame "
         f"index {frames[0]}–{frames[-1]} from the start of the video (trigger at frame "
         f"{TRIGGER * fps:g}, t = {TRIGGER:g} s). Seed `[{SEED}, {index}]`. Read: "
-        f"`read_log(path, fps={fps:g}, points={DLC_POINTS!r})` (the default "
-        f"`min_likelihood=0.9` drops the bad positions)."
+        f"`read_log(path, fps={fps:g}, points={DLC_POINTS!r}, min_likelihood=0.9)` (the "
+        f"mislocated positions have likelihood up to 0.85: stricter than the default 0.6, "
+        f"DeepLabCut's own `pcutoff`, which keeps those above 0.6)."
     )
     return Sample(name, text, readme)
 

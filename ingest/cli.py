@@ -42,8 +42,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def add_log_arguments(p: argparse.ArgumentParser) -> None:
     """The arguments every command that reads a log takes (docs/interface.md: ``forces``,
-    ``reconstruct`` and ``compare`` take the same): LOG, --scene, --fps, --column, --point."""
-    p.add_argument("log", help="angle log (generic CSV, Tracker, Kinovea or DeepLabCut)")
+    ``reconstruct`` and ``compare`` take the same): LOG, --scene, --fps, --column, --point,
+    --time-unit, --angle-unit, --min-likelihood, --individual, --calibration."""
+    p.add_argument("log", help="angle or point log (generic CSV, Tracker, Kinovea, "
+                               "DeepLabCut, SLEAP or anipose; docs/formats.md)")
     p.add_argument("--scene", required=True, help="scene file (TOML) of the engine filmed")
     p.add_argument("--fps", type=float,
                    help="frame rate (1/s): needed for frame numbers; also puts times "
@@ -54,16 +56,39 @@ def add_log_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--point", action="append", default=[], metavar="ROLE=NAME",
                    help="the file's point NAME is ROLE (pivot, spigot, hinge, counterweight, "
                         "projectile); repeatable")
+    p.add_argument("--time-unit", choices=("s", "ms", "us", "frames"),
+                   help="unit of a time column whose header states none (Kinovea's Time, a "
+                        "plain 't'); default: decided from the frame steps, or refused")
+    p.add_argument("--angle-unit", choices=("deg", "rad"),
+                   help="unit of angle columns whose header states none (Tracker's θ, a "
+                        "plain 'theta'); default: decided from the beam's sweep, or refused")
+    p.add_argument("--min-likelihood", type=float, metavar="P",
+                   help="DeepLabCut likelihood / SLEAP score below which a position is a gap "
+                        "(default 0.6)")
+    p.add_argument("--individual", metavar="NAME",
+                   help="the DeepLabCut individual or SLEAP track that is the engine")
+    p.add_argument("--calibration", metavar="FILE",
+                   help="camera calibration file (not supported yet)")
 
 
 def log_options(args: argparse.Namespace) -> dict[str, object]:
-    """``fps``, ``columns`` and ``points`` for :func:`read_log` from the log arguments, each
-    checked with an error naming the option."""
+    """The keywords of :func:`read_log` from the log arguments (``fps``, ``columns``,
+    ``points``, and those given of ``time_unit``, ``angle_unit``, ``min_likelihood``,
+    ``individual``, ``calibration``), each checked with an error naming the option."""
     if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
         raise TrebuchetInputError(f"--fps {args.fps:g}: must be a positive frame rate")
-    return {"fps": args.fps,
-            "columns": parse_pairs(args.column, "--column", ANGLE_NAMES, "right"),
-            "points": parse_pairs(args.point, "--point", POINT_ROLES, "left")}
+    options: dict[str, object] = {
+        "fps": args.fps,
+        "columns": parse_pairs(args.column, "--column", ANGLE_NAMES, "right"),
+        "points": parse_pairs(args.point, "--point", POINT_ROLES, "left")}
+    p = getattr(args, "min_likelihood", None)
+    if p is not None and not (math.isfinite(p) and 0 <= p <= 1):
+        raise TrebuchetInputError(f"--min-likelihood {p:g}: must be in [0, 1]")
+    for key in ("time_unit", "angle_unit", "min_likelihood", "individual", "calibration"):
+        value = getattr(args, key, None)
+        if value is not None:
+            options[key] = value
+    return options
 
 
 def parse_pairs(items: list[str], option: str, allowed: tuple[str, ...],

@@ -97,7 +97,7 @@ def test_generic_decimal_comma_with_semicolons_and_greek_names(tmp_path):
 
 
 def _angle_rows(times: list[str]) -> str:
-    return "t (s),theta,psi,phi\n" + "\n".join(
+    return "t (s),theta (rad),psi (rad),phi (rad)\n" + "\n".join(
         f"{s},{num(THETA[k])},{num(PSI[k])},{num(PHI[k])}" for k, s in enumerate(times)) + "\n"
 
 
@@ -267,12 +267,15 @@ def test_kinovea_without_fps_fits_a_frame_grid_close_to_the_true_rate():
     assert any("fitted frame grid" in r for r in df.attrs["repairs"])
 
 
-def test_kinovea_time_with_fraction_and_no_unit_is_an_error(tmp_path):
+def test_kinovea_time_without_unit_is_read_in_the_unit_its_steps_tell(tmp_path):
+    """Kinovea's ClassicTime (s) and the kinematics dialogs' whole ms share the header."""
     p = tmp_path / "kin.csv"
     lines = ['"Time","p/a/X","p/a/Y"'] + [f'"{k * 0.004:.3f}","1","2"' for k in K]
     p.write_text("\n".join(lines) + "\n")
-    with pytest.raises(TrebuchetInputError, match=r"kin\.csv, row 3, column 'Time'.*unit"):
-        read_log(p)
+    with pytest.raises(TrebuchetInputError, match=r"kin\.csv: the angle theta needs"):
+        read_log(p)  # the time is read (in s); the file lacks the engine's points
+    with pytest.raises(TrebuchetInputError, match=r"kin\.csv, column 'Time'.*fps=.*'ms'"):
+        read_log(p, fps=100)  # steps of 4 ms are 250 fps, not 100
 
 
 # ------------------------------------------------------------------------------ DeepLabCut
@@ -280,7 +283,7 @@ def test_kinovea_time_with_fraction_and_no_unit_is_an_error(tmp_path):
 
 def test_deeplabcut_three_header_rows_low_likelihood_as_gaps():
     with pytest.warns(TrebuchetDataWarning) as record:
-        df = read_log(LOGS / "deeplabcut.csv", fps=FPS)
+        df = read_log(LOGS / "deeplabcut.csv", fps=FPS, min_likelihood=0.9)
     assert df.attrs["format"] == "deeplabcut"
     np.testing.assert_allclose(df["t"], K / FPS, atol=1e-15)
     # pixels with 4 decimals, 100 px per m, y flipped from image (down) to up
@@ -297,10 +300,12 @@ def test_deeplabcut_three_header_rows_low_likelihood_as_gaps():
     assert "'projectile' with likelihood below 0.9" in messages and "row 9" in messages
 
 
-def test_deeplabcut_likelihood_threshold_is_a_keyword():
-    df = quiet_read(LOGS / "deeplabcut.csv", fps=FPS, min_likelihood=0.6)
-    assert np.isfinite(df["theta"].iloc[9])  # spigot at 0.65 now kept
-    assert np.isnan(df["phi"].iloc[5])  # projectile at 0.42 still a gap
+def test_deeplabcut_likelihood_threshold_is_a_keyword_default_dlcs_pcutoff():
+    df = quiet_read(LOGS / "deeplabcut.csv", fps=FPS)
+    assert np.isfinite(df["theta"].iloc[9])  # spigot at 0.65 kept by the default 0.6
+    assert np.isnan(df["phi"].iloc[5])  # projectile at 0.42 a gap
+    strict = quiet_read(LOGS / "deeplabcut.csv", fps=FPS, min_likelihood=0.9)
+    assert np.isnan(strict["theta"].iloc[9])
 
 
 def test_deeplabcut_needs_fps():
@@ -370,8 +375,10 @@ def test_points_round_trip_through_a_kinovea_file_with_decimal_comma(tmp_path):
         lines.append(";".join(cells))
     p = tmp_path / "kin.csv"
     p.write_text("\r\n".join(lines) + "\r\n")
-    df = read_log(p)  # points named after the parts: no mapping needed
-    assert df.attrs["repairs"] == []  # times on a 4 ms grid are not touched
+    df = quiet_read(p)  # points named after the parts: no mapping needed
+    # times on a 4 ms grid are not touched; their unit (none written) is inferred and said
+    assert df.attrs["repairs"] == [df.attrs["log"].decisions[0]]
+    assert df.attrs["log"].decisions[0].startswith("time unit of 'Time': ms (inferred: steps of 4")
     np.testing.assert_allclose(df["t"], np.arange(N) * 0.004, atol=1e-15)
     for a in ("theta", "psi", "phi"):
         np.testing.assert_allclose(df[a], TRUE[a], rtol=0, atol=1e-12, err_msg=a)

@@ -262,16 +262,29 @@ def test_mangled_fixtures_give_a_table_or_our_error_and_nothing_else(tmp_path):
     assert outcomes["table"] > 20 and outcomes["error"] > 20, outcomes
 
 
-def test_degrees_under_a_header_without_unit_are_refused(tmp_path):
-    """Without a unit the angles are rad; degree values are far beyond any shot's turns."""
-    rows = good_rows()
-    text = "t,theta,psi,phi\n" + "\n".join(rows) + "\n"
-    msg = error_of(write(tmp_path, text))
-    assert "shot.csv" in msg and "column 'theta'" in msg and "(deg)" in msg
+def test_angles_without_unit_are_read_in_the_unit_their_values_tell(tmp_path):
+    """Degree values reach beyond two turns in rad; radian values within ±π sweep too little
+    in degrees for a shot. Each inference is said (a warned repair and a decision)."""
+    text = "t,theta,psi,phi\n" + "\n".join(good_rows()) + "\n"
+    with pytest.warns(TrebuchetDataWarning, match="angle unit of 'theta', 'psi', 'phi': deg"):
+        df = read_log(write(tmp_path, text))
+    np.testing.assert_allclose(df["theta"], np.radians(-50 + np.arange(12)), atol=1e-12)
+    assert any("deg (inferred" in d for d in df.attrs["log"].decisions)
     radians = "t,theta,psi,phi\n" + "\n".join(
         f"{k / 100:.2f},{np.radians(-50 + k):.5f},{np.radians(-90 + 2 * k):.5f},"
         f"{np.radians(-180 + 3 * k):.5f}" for k in range(12)) + "\n"
-    assert len(read_log(write(tmp_path, radians, "rad.csv"))) == 12
+    with pytest.warns(TrebuchetDataWarning, match="phi': rad"):
+        assert len(read_log(write(tmp_path, radians, "rad.csv"))) == 12
+    assert len(read_log(write(tmp_path, radians, "rad.csv"), angle_unit="rad")) == 12
+
+
+def test_angles_without_unit_that_no_unit_makes_a_shot_are_refused(tmp_path):
+    """A sweep of 10: more than a turn in rad, 10° in degrees (a shot sweeps 100-200°)."""
+    text = "t,theta,psi,phi\n" + "\n".join(
+        f"{k / 100:.2f},{-5 + k:.1f},{-9 + k:.1f},{-3 + k * 0.1:.1f}" for k in range(11)) + "\n"
+    msg = error_of(write(tmp_path, text))
+    assert "shot.csv, column 'theta'" in msg and "angle_unit=" in msg and "'theta (deg)'" in msg
+    assert len(read_log(write(tmp_path, text), angle_unit="deg")) == 11
 
 
 def test_times_in_ms_under_a_seconds_header_are_refused(tmp_path):

@@ -67,7 +67,8 @@ SAMPLES = {
         point_sd(0.01, 0.001),
     ),
     "horsdal_dlc.csv": (
-        "deeplabcut", "horsdal_large.toml", {"fps": 120, "points": DLC_POINTS}, 120.0,
+        "deeplabcut", "horsdal_large.toml",
+        {"fps": 120, "points": DLC_POINTS, "min_likelihood": 0.9}, 120.0,
         point_sd(1.0 / 40.0),
     ),
     "backyard_240fps.csv": ("generic", "backyard.toml", {}, 240.0, angle_sd(0.3, 0.001)),
@@ -150,14 +151,17 @@ def test_tracker_sling_branch_is_the_papers():
 
 def test_deeplabcut_low_likelihood_positions_are_wrong_and_dropped():
     path = SAMPLES_DIR / "horsdal_dlc.csv"
-    kept = quiet_read(path, fps=120, points=DLC_POINTS)
+    kept = quiet_read(path, fps=120, points=DLC_POINTS, min_likelihood=0.9)
+    default = quiet_read(path, fps=120, points=DLC_POINTS)
     everything = quiet_read(path, fps=120, points=DLC_POINTS, min_likelihood=0.0)
     true, _ = true_angles(PAPER, kept["t"].to_numpy())
     sd = point_sd(1.0 / 40.0)[0]
     err_all = np.abs(everything["theta"] - true["theta"]).max()
     err_kept = np.abs(kept["theta"] - true["theta"]).max()
     assert err_all > 6 * sd  # the mislocated points are there ...
-    assert err_kept < 5 * sd  # ... and the default likelihood cut removes them
+    assert err_kept < 5 * sd  # ... and the sample's cut (0.9) removes them
+    # the default (0.6, DeepLabCut's pcutoff) keeps those mislocated with likelihood 0.6-0.85
+    assert np.abs(default["theta"] - true["theta"]).max() > 6 * sd
 
 
 def test_readme_labels_every_sample_synthetic_and_documents_how_to_read_it():

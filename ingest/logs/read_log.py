@@ -1,18 +1,27 @@
-"""Read an angle log (generic CSV or a tracking tool's export) into the paper's angles.
+"""Read an angle or point log (generic CSV or a tracking tool's export) into the paper's
+angles.
 
-:func:`read_log` recognises the format from the file's content (never its extension):
+:func:`read_log` recognises the format from the file's content (never its extension;
+docs/formats.md lists every tool and layout):
 
-* ``"tracker"``: an export of Tracker (physlets.org/tracker), see :mod:`.formats_tracker`;
-* ``"kinovea"``: a Kinovea trajectory CSV, see :mod:`.formats_kinovea`;
-* ``"deeplabcut"``: a DeepLabCut CSV, see :mod:`.formats_deeplabcut`;
-* ``"generic"``: anything else, see :mod:`.formats_generic`.
+* ``"sleap"``: SLEAP's analysis HDF5 or CSV, see :mod:`..readers.sleap`;
+* ``"deeplabcut"``: a DeepLabCut CSV or .h5, see :mod:`..readers.deeplabcut`;
+* ``"anipose"``: anipose's 3-D CSV, see :mod:`..readers.anipose`;
+* ``"tracker"``: an export of Tracker (physlets.org/tracker), see :mod:`..readers.tracker`;
+* ``"kinovea"``: a Kinovea trajectory CSV, see :mod:`..readers.kinovea`;
+* ``"generic"``: anything else, see :mod:`..readers.generic`.
 
+Units the file does not state are decided (``time_unit=``, ``angle_unit=``, else from the
+frame steps and the values, see :mod:`..readers.time_units` and :mod:`.units`), each
+decision a sentence; :func:`.scene_check.scene_check` checks them against the scene.
 Then every log gets the same checks and repairs, in this order: the time must not
 decrease (error naming the row); rows without any angle are dropped; rows repeating the
 time of the row before are merged; absent frames and empty cells are reported (and left
-as gaps: no row is invented, no value interpolated); repeated frames are dropped;
-each angle is unwrapped. Every repair is listed in ``attrs["repairs"]`` and warned
-about as a :class:`~trebuchet.errors.TrebuchetDataWarning`.
+as gaps: no row is invented, no value interpolated); repeated frames (an up-converted
+video's runs of one image) are dropped; each angle is unwrapped. Every repair (and every
+inferred unit) is listed in the result's ``repairs`` (``attrs["log"]``, a
+:class:`.result.ReadLog`) and warned about as a
+:class:`~trebuchet.errors.TrebuchetDataWarning`.
 """
 
 from __future__ import annotations
@@ -35,12 +44,27 @@ from trebuchet.ingest.logs.repairs import (
     report_gaps,
     unwrap_angles,
 )
-from trebuchet.ingest.readers.deeplabcut import looks_like_deeplabcut, read_deeplabcut
+from trebuchet.ingest.logs.result import ReadLog
+from trebuchet.ingest.logs.units import angle_units, rate_check, y_axis
+from trebuchet.ingest.readers.anipose import looks_like_anipose, read_anipose
+from trebuchet.ingest.readers.deeplabcut import (
+    looks_like_deeplabcut,
+    read_deeplabcut,
+    read_deeplabcut_h5,
+)
 from trebuchet.ingest.readers.generic import read_generic
 from trebuchet.ingest.readers.kinovea import looks_like_kinovea, read_kinovea
 from trebuchet.ingest.readers.mapping import ANGLES, check_mapping, missing_angle_error, resolve
+from trebuchet.ingest.readers.sleap import (
+    is_hdf5,
+    looks_like_sleap_csv,
+    looks_like_sleap_h5,
+    read_sleap_csv,
+    read_sleap_h5,
+)
 from trebuchet.ingest.readers.source import LogSource, ParsedLog
 from trebuchet.ingest.readers.table import read_text, split_lines
+from trebuchet.ingest.readers.time_units import check_time_unit
 from trebuchet.ingest.readers.timebase import (
     check_fps,
     check_frame_rate,
@@ -49,14 +73,18 @@ from trebuchet.ingest.readers.timebase import (
     snap_rounded_times,
 )
 from trebuchet.ingest.readers.tracker import looks_like_tracker, read_tracker
+from trebuchet.ingest.readers.units import check_angle_unit
 
 #: Fewest frames with all three angles that a log must have.
 MIN_FRAMES = 10
 #: rad: an angle further from zero than two turns is no shot's (degrees read as rad, most likely).
 MAX_ANGLE = 4.0 * math.pi
 
-#: Default likelihood below which a DeepLabCut position is treated as missing.
-MIN_LIKELIHOOD = 0.9
+#: Default likelihood (DeepLabCut) or score (SLEAP) below which a position is a gap:
+#: DeepLabCut's own ``pcutoff``.
+MIN_LIKELIHOOD = 0.6
+#: Formats whose time is a frame index (``t = frame / fps``).
+FRAME_INDEXED = ("deeplabcut", "sleap", "anipose")
 
 
 def read_log(
@@ -65,45 +93,62 @@ def read_log(
     columns: Mapping[str, str] | None = None,
     points: Mapping[str, str] | None = None,
     *,
+    time_unit: str | None = None,
+    angle_unit: str | None = None,
     min_likelihood: float = MIN_LIKELIHOOD,
+    individual: str | None = None,
+    calibration: str | Path | None = None,
 ) -> pd.DataFrame:
     """Read an angle log; return columns ``t`` (s), ``theta``, ``psi``, ``phi`` (rad).
 
     Parameters
     ----------
     path:
-        The log file. Its format is recognised from its content.
+        The log file. Its format is recognised from its content (docs/formats.md lists
+        every tool and layout): DeepLabCut (CSV, .h5), SLEAP (analysis HDF5 and CSV),
+        anipose (3-D CSV), Kinovea, Tracker, or a generic CSV.
     fps:
         Frame rate (1/s) for files with frame numbers and no time column (generic
-        ``frame`` column, DeepLabCut). For times rounded to whole milliseconds
-        (Kinovea) or written with too few decimals (Tracker's 0.1 ms) it gives the exact
-        frame times; without it they go on a fitted frame grid (a repair note says so).
+        ``frame`` column, DeepLabCut, SLEAP, anipose, Kinovea's Frames time code). For
+        times rounded to whole milliseconds (Kinovea) or written with too few decimals
+        (Tracker's 0.1 ms) it gives the exact frame times; without it they go on a fitted
+        frame grid (a repair note says so). It also decides a time column's unit.
     columns:
         ``{"<column or track name in the file>": "theta" | "psi" | "phi"}`` for files whose
         names are not the angles' own. Unmapped angles still use columns named after them.
     points:
         ``{"pivot" | "spigot" | "hinge" | "counterweight" | "projectile": "<point name>"}``
-        for files of point positions (Kinovea, DeepLabCut, Tracker point masses); parts
-        not given are found by their own name. theta needs pivot and spigot, psi hinge
-        and counterweight, phi spigot and projectile.
+        for files of point positions (Kinovea, DeepLabCut, SLEAP, anipose, Tracker point
+        masses); parts not given are found by their own name. theta needs pivot and
+        spigot, psi hinge and counterweight, phi spigot and projectile.
+    time_unit:
+        ``"s"``, ``"ms"``, ``"us"`` or ``"frames"``: the unit of a time column whose header
+        states none (Kinovea's ``Time``, a generic ``t``). Without it the unit is decided
+        from the frame pattern (the steps against a film's frame rate and ``fps``), or the
+        file is refused naming the likely unit.
+    angle_unit:
+        ``"deg"`` or ``"rad"``: the unit of angle columns whose header states none
+        (Tracker's θ, in the unit of its preference; a generic ``theta``). Without it the
+        unit is decided from the beam's sweep, or the file is refused.
     min_likelihood:
-        DeepLabCut only: positions with a lower likelihood become gaps (default 0.9,
-        stricter than DeepLabCut's own plotting cut-off of 0.6: second derivatives
-        suffer more from a wrong point than from a missing one).
+        DeepLabCut's likelihood or SLEAP's score below which a position becomes a gap
+        (reported); default 0.6, DeepLabCut's own ``pcutoff``.
+    individual:
+        The individual (DeepLabCut multi-animal) or track (SLEAP) that is the engine;
+        needed when the file has several.
+    calibration:
+        A camera calibration file: not supported yet (refused).
 
     Returns
     -------
     pandas.DataFrame
         ``t`` in s (the log's own time: ``frame / fps`` for frame numbers), the angles in
-        rad, unwrapped, float64, sorted by ``t``; NaN where an angle is missing. ``attrs``:
-        ``source`` (the path), ``format``, ``repairs`` (list of sentences), ``columns``
-        (which column or points gave each angle), ``fps`` (if known), ``frame`` (list
-        of frame numbers per row, if the file has them), and for point files ``points``
-        (dict of lists: ``t``, ``<part>_x``, ``<part>_y`` in the file's unit, y up; one
-        call to ``pandas.DataFrame`` away from a table) and ``point_names``; and
-        ``leaves_sling`` (``{"t", "sd"}`` in s) when a tracked projectile leaves its
-        sling's circle (phi is blanked from there, a repair). Only plain Python values,
-        so that ``pandas.concat`` of logs keeps working.
+        rad, unwrapped, float64, sorted by ``t``; NaN where an angle is missing.
+        ``attrs["log"]`` is a :class:`~trebuchet.ingest.logs.result.ReadLog`: the source,
+        format, repairs, decisions (how each unit was decided), columns, fps, frame
+        numbers, the points of a point file, and when a tracked projectile leaves its
+        sling's circle. The separate keys of earlier releases (``attrs["source"]``,
+        ``["repairs"]``, ...) are still written, for this release only.
 
     Raises
     ------
@@ -111,16 +156,22 @@ def read_log(
         On a user's mistake; the message names the file, the row (1-based line number in
         the file) or column, and what is wrong.
     """
+    time_unit = check_time_unit(time_unit)
+    angle_unit = check_angle_unit(angle_unit)
+    if calibration is not None:
+        raise TrebuchetInputError(
+            f"calibration={str(calibration)!r}: a camera calibration is not supported yet")
     try:
-        log, repairs = _read(path, fps, columns, points, min_likelihood)
+        log, repairs = _read(path, fps, columns, points, min_likelihood, individual,
+                             time_unit, angle_unit)
     except TrebuchetInputError as exc:  # the file's name, once, in front of the place
         raise exc.in_file(path) from None
     return _frame(path, log, repairs)
 
 
 def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None,
-          points: Mapping[str, str] | None, min_likelihood: float
-          ) -> tuple[ParsedLog, list[str]]:
+          points: Mapping[str, str] | None, min_likelihood: float, individual: str | None,
+          time_unit: str | None, angle_unit: str | None) -> tuple[ParsedLog, list[str]]:
     """:func:`read_log` up to the result table: the log and its repair notes. Errors name the
     place in the file but not the file."""
     fps = check_fps(fps)
@@ -129,12 +180,13 @@ def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None
                   "points")
     if not (isinstance(min_likelihood, int | float) and 0 <= min_likelihood <= 1):
         raise TrebuchetInputError(f"min_likelihood={min_likelihood!r} must be in [0, 1]")
-    numbered = split_lines(read_text(path))
-    source = _read_source(numbered, fps, float(min_likelihood))
+    if individual is not None and not isinstance(individual, str):
+        raise TrebuchetInputError(f"individual={individual!r} must be a name (str)")
+    source = _read_source(path, fps, float(min_likelihood), individual, points, time_unit)
     check_time(source.t, source.rows, source.time_label)
     check_frame_rate(source.t, source.time_label, fps)
     _snap_decimal_times(source, fps)
-    log = _choose_angles(source, mapping, points)
+    log = _choose_angles(source, mapping, points, angle_unit)
     for angle in ANGLES:
         values = log.angles[angle]
         if np.isnan(values).all():
@@ -146,9 +198,9 @@ def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None
             raise TrebuchetInputError.at(
                 f"column '{log.labels[angle]}'", f"{angle} reaches {largest:.4g} rad, more "
                 "than two turns from zero, which no shot turns; if the column holds degrees, "
-                f"say so in its header, e.g. '{angle} (deg)'"
+                f"say so in its header, e.g. '{angle} (deg)', or with angle_unit='deg'"
             )
-    repairs = list(log.repairs)
+    repairs = [d for d in log.decisions if "(inferred" in d] + list(log.repairs)
     for step in (drop_rows_without_angles, merge_duplicate_times):
         note = step(log)
         if note:
@@ -167,17 +219,59 @@ def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None
     return log, repairs
 
 
-def _read_source(
-    numbered: list[tuple[int, str]], fps: float | None, min_likelihood: float
-) -> LogSource:
+def _read_source(path: str | Path, fps: float | None, min_likelihood: float,
+                 individual: str | None, points: Mapping[str, str] | None,
+                 time_unit: str | None) -> LogSource:
     """Recognise the format from the content and read the file."""
+    if is_hdf5(path):
+        try:
+            if looks_like_sleap_h5(path):
+                source = read_sleap_h5(path, fps, min_likelihood, individual)
+            else:
+                source = read_deeplabcut_h5(path, fps, min_likelihood, individual)
+        except TrebuchetInputError:
+            raise
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise TrebuchetInputError(
+                f"is not a text (CSV) file, and starts like an HDF5 file that cannot be "
+                f"read as SLEAP's or DeepLabCut's ({type(exc).__name__}: {exc})") from None
+        return _frame_indexed(source, fps, time_unit)
+    numbered = split_lines(read_text(path))
     if looks_like_deeplabcut(numbered):
-        return read_deeplabcut(numbered, fps, min_likelihood)
+        source = read_deeplabcut(numbered, fps, min_likelihood, individual)
+    elif looks_like_sleap_csv(numbered):
+        source = read_sleap_csv(numbered, fps, min_likelihood, individual)
+    elif looks_like_anipose(numbered):
+        source = read_anipose(numbered, fps, points)
+    else:
+        source = None
+    if source is not None:
+        return _frame_indexed(source, fps, time_unit)
+    if individual is not None:
+        raise TrebuchetInputError(
+            f"individual={individual!r} is for DeepLabCut multi-animal and SLEAP files; "
+            "this file has no individuals")
     if looks_like_tracker(numbered):
-        return read_tracker(numbered, fps)
+        return read_tracker(numbered, fps, time_unit)
     if looks_like_kinovea(numbered):
-        return read_kinovea(numbered, fps)
-    return read_generic(numbered, fps)
+        return read_kinovea(numbered, fps, time_unit)
+    return read_generic(numbered, fps, time_unit)
+
+
+def _frame_indexed(source: LogSource, fps: float | None, time_unit: str | None) -> LogSource:
+    """The decisions of a pose file (frame index, image or 3-D coordinates)."""
+    if time_unit not in (None, "frames"):
+        raise TrebuchetInputError(
+            f"time_unit={time_unit!r}, but this {source.fmt} file counts frames "
+            f"('{source.time_label}'); leave time_unit out and pass fps=")
+    source.decisions.append(f"time: frame numbers ('{source.time_label}') / fps={fps!r}")
+    if source.fmt == "anipose":
+        source.decisions.append("y axis: up from the counterweight hanging at rest (anipose's "
+                                "3-D points taken into the engine's plane)")
+    else:
+        source.decisions.append(f"y axis: down ({source.fmt} writes image coordinates), "
+                                "turned up")
+    return source
 
 
 def _snap_decimal_times(source: LogSource, fps: float | None) -> None:
@@ -199,6 +293,7 @@ def _choose_angles(
     source: LogSource,
     mapping: dict[str, str],
     points: Mapping[str, str] | None,
+    angle_unit: str | None = None,
 ) -> ParsedLog:
     """Pick the angle columns (or compute the angles from points) of ``source``."""
     use_points = points is not None or (
@@ -229,6 +324,13 @@ def _choose_angles(
     used = {chosen[a].label for a in ANGLES}
     unused = [c.label for c in source.angle_columns if c.label not in used]
     repairs = list(source.repairs)
+    labels = {a: chosen[a].label for a in ANGLES}
+    raw = {a: np.asarray(chosen[a].data(), dtype=float) for a in ANGLES}
+    angles, decided, factors = angle_units(raw, labels, source.unitless, angle_unit)
+    decisions = list(source.decisions) + decided
+    confirmed = rate_check(source.t, angles, labels, source.rates, factors)
+    if confirmed:
+        decisions.append(confirmed)
     if unused and source.fmt == "generic":  # nothing is dropped unsaid (a tracking tool's
         # export holds rates and accelerations beside each angle: those are not news)
         repairs.append(f"column(s) {', '.join(repr(u) for u in unused)} not used (no angle "
@@ -237,11 +339,12 @@ def _choose_angles(
         fmt=source.fmt,
         t=source.t,
         rows=source.rows,
-        angles={a: np.asarray(chosen[a].data(), dtype=float) for a in ANGLES},
-        labels={a: chosen[a].label for a in ANGLES},
+        angles=angles,
+        labels=labels,
         frame=source.frame,
         fps=source.fps,
         repairs=repairs,
+        decisions=decisions,
     )
 
 
@@ -256,6 +359,7 @@ def _from_points(
     """The angles from the point positions named by ``points`` (see :mod:`.angles_from_points`)."""
     chosen = resolve_points(source.point_tracks, dict(points) if points else None)
     repairs = list(source.repairs)
+    decisions = list(source.decisions)
     positions: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for role, cand in chosen.items():
         x, y, note = cand.data()
@@ -266,6 +370,11 @@ def _from_points(
         positions[role] = (np.asarray(x, dtype=float), np.asarray(y, dtype=float))
         if note:
             repairs.append(note)
+    if source.y_down is None:
+        down, decision = y_axis(positions)
+        decisions.append(decision)
+        if down:
+            positions = {r: (x, -y) for r, (x, y) in positions.items()}
     angles = point_angles(positions)
     leaves, note = _cut_flight_from_sling(source, positions, angles)
     if note:
@@ -292,6 +401,7 @@ def _from_points(
         point_names={role: cand.label for role, cand in chosen.items()},
         repairs=repairs,
         leaves_sling=leaves,
+        decisions=decisions,
     )
 
 
@@ -320,29 +430,25 @@ def _cut_flight_from_sling(source: LogSource, positions: dict[str, tuple[np.ndar
 
 
 def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame:
-    """The result table with its attrs; warns once per repair."""
+    """The result table with its :class:`ReadLog` (and the old keys); warns once per repair."""
     df = pd.DataFrame(
         {"t": np.asarray(log.t, dtype=np.float64)}
         | {a: np.asarray(log.angles[a], dtype=np.float64) for a in ANGLES}
     )
-    attrs: dict = {
-        "source": str(path),
-        "format": log.fmt,
-        "repairs": repairs,
-        "columns": dict(log.labels),
-    }
-    if log.fps is not None:
-        attrs["fps"] = float(log.fps)
-    if log.frame is not None:
-        attrs["frame"] = [int(f) for f in log.frame]
-    if log.points is not None:
-        attrs["points"] = {"t": df["t"].tolist()} | {
-            k: [float(v) for v in arr] for k, arr in log.points.items()
-        }
-        attrs["point_names"] = dict(log.point_names or {})
-    if log.leaves_sling is not None:
-        attrs["leaves_sling"] = {"t": log.leaves_sling[0], "sd": log.leaves_sling[1]}
-    df.attrs.update(attrs)
+    info = ReadLog(
+        source=str(path),
+        format=log.fmt,
+        repairs=tuple(repairs),
+        decisions=tuple(log.decisions),
+        columns=dict(log.labels),
+        fps=None if log.fps is None else float(log.fps),
+        frame=log.frame,
+        points=None if log.points is None else {"t": df["t"].to_numpy()} | log.points,
+        point_names=None if log.points is None else dict(log.point_names or {}),
+        leaves_sling=log.leaves_sling,
+    )
+    df.attrs.update(info.legacy_attrs())
+    df.attrs["log"] = info
     name = Path(path).name
     for note in repairs:
         warnings.warn(f"{name}: {note}", TrebuchetDataWarning, stacklevel=3)

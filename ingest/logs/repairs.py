@@ -1,7 +1,7 @@
 """Repairs made to every log, each returning a sentence for the user (or nothing).
 
 Each function works in place on a :class:`ParsedLog` and returns what it did, so
-that :func:`read_log` can list it in ``attrs["repairs"]`` and warn about it.
+that :func:`read_log` can list it in the result's ``repairs`` and warn about it.
 """
 
 from __future__ import annotations
@@ -94,23 +94,37 @@ def report_gaps(log: ParsedLog) -> list[str]:
     return out
 
 
-def drop_repeated_frames(log: ParsedLog) -> str | None:
-    """Drop frames that repeat the frame before while the engine moves through them.
+#: Share of the rows in runs of identical rows that marks an up-converted video.
+UPCONVERTED_SHARE = 0.9
 
-    A row is a repeated frame when all its angles equal the row before (same cells
-    missing), the pair is flanked by rows that differ, and at least one angle moves in
-    the same direction into and out of the pair (a stall in the middle of a motion,
-    as when a tracker or a frame-rate conversion copies every third frame). Runs of
-    three or more equal rows are kept: that is an engine at rest.
+
+def drop_repeated_frames(log: ParsedLog) -> str | None:
+    """Drop rows that repeat the image before: an up-converted video, or single copies.
+
+    Rows are compared over every point (point files) or every angle, missing cells alike.
+
+    * An up-converted video (a phone filming 60 images/s into a 240 fps file): when at
+      least :data:`UPCONVERTED_SHARE` of the rows lie in runs of identical rows, every run
+      is one image repeated; the first row of each run is kept (one per ``m`` rows in a run
+      longer than the usual length ``m``: an engine at rest in noise-free data), and the
+      effective frame rate is noted.
+    * Otherwise a single copy (a pair of equal rows) is dropped when it is flanked by rows
+      that differ and at least one angle moves the same way into and out of it (a stall in
+      the middle of a motion, as when a tracker or a frame-rate conversion copies every
+      third frame). Runs of three or more equal rows are kept: that is an engine at rest.
     """
     v = _valid(log)
     n = len(v)
     if n < 4:
         return None
+    same = _compared(log)
     equal = np.array(
-        [np.array_equal(v[i], v[i - 1], equal_nan=True) and np.isfinite(v[i]).any()
+        [np.array_equal(same[i], same[i - 1], equal_nan=True) and np.isfinite(same[i]).any()
          for i in range(1, n)]
     )
+    note = _drop_upconverted(log, equal)
+    if note is not None:
+        return note
     drop = np.zeros(n, dtype=bool)
     for i in range(2, n - 1):
         # rows i-1 and i equal; rows i-2 and i+1 differ from them
@@ -129,6 +143,35 @@ def drop_repeated_frames(log: ParsedLog) -> str | None:
         f"dropped {len(rows)} repeated frames (identical to the frame before while the "
         f"engine moves): {format_rows(rows)}"
     )
+
+
+def _compared(log: ParsedLog) -> np.ndarray:
+    """(n, k) array of what makes a row's image: every point's x and y, else the angles."""
+    if log.points:
+        return np.column_stack([log.points[k] for k in sorted(log.points)])
+    return _valid(log)
+
+
+def _drop_upconverted(log: ParsedLog, equal: np.ndarray) -> str | None:
+    """Keep the first row of each run of identical rows when most rows lie in such runs."""
+    n = len(log.t)
+    starts = np.concatenate([[0], np.nonzero(~equal)[0] + 1])
+    lengths = np.diff(np.concatenate([starts, [n]]))
+    if lengths.max() < 2 or lengths[lengths >= 2].sum() < UPCONVERTED_SHARE * n:
+        return None
+    m = int(np.bincount(lengths[lengths >= 2]).argmax())
+    keep = np.zeros(n, dtype=bool)
+    for start, length in zip(starts, lengths, strict=True):
+        keep[start:start + length:m if length > m else length] = True
+    steps = np.diff(log.t)
+    steps = steps[steps > 0]
+    rate = 1.0 / float(np.median(steps)) if steps.size else float("nan")
+    rows = log.rows[~keep]
+    log.take(keep)
+    return (f"dropped {len(rows)} rows that repeat the image before: runs of {m} identical "
+            f"rows (a video up-converted to {rate:.4g} fps, each image repeated {m} times); "
+            f"the first of each run kept: effective frame rate {rate / m:.4g} fps "
+            f"({format_rows(rows)})")
 
 
 def unwrap_angles(log: ParsedLog) -> list[str]:

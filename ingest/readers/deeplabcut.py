@@ -1,4 +1,4 @@
-"""DeepLabCut CSV (``analyze_videos(..., save_as_csv=True)``).
+"""DeepLabCut output: the CSV (``analyze_videos(..., save_as_csv=True)``) and the .h5.
 
 Layout::
 
@@ -7,20 +7,29 @@ Layout::
     coords,x,y,likelihood,x,y,likelihood,...
     0,512.3,280.1,0.999,901.7,610.2,0.98,...
 
-* multi-animal files have an ``individuals`` row before ``bodyparts``; their points are
-  named ``<individual>/<bodypart>`` (or ``<bodypart>`` alone when unique);
+* multi-animal files have an ``individuals`` row before ``bodyparts``: the engine is the
+  individual named by ``individual`` (the only one by default; several without a choice is
+  an error listing them); the unique bodyparts of the individual ``single`` go with it.
+  Points are named ``<individual>/<bodypart>`` (or ``<bodypart>`` alone when unique);
+* the .h5 is a pandas HDF file (PyTables; key ``df_with_missing``, or ``tracks`` for
+  stitched multi-animal tracks; "table" or "fixed" format) holding the same table: columns
+  ``scorer / [individuals /] bodyparts / coords``, index the frame number; reading it
+  needs the package ``tables``; its rows are numbered frame + 1 in messages;
 * the first column is the frame index; there is no time: ``fps`` is required and
   ``t = frame / fps``;
 * image coordinates in pixels with y pointing **down**: y is negated here so that the
-  positions (and ``attrs["points"]``) have y up;
+  positions (and the result's ``points``) have y up;
 * positions with a likelihood below ``min_likelihood`` become gaps (reported).
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.readers.keypoints import choose_individual, keypoint_source
 from trebuchet.ingest.readers.mapping import Candidate, role_default
 from trebuchet.ingest.readers.source import LogSource
 from trebuchet.ingest.readers.table import (
@@ -42,7 +51,8 @@ def looks_like_deeplabcut(numbered: list[tuple[int, str]]) -> bool:
 
 
 def read_deeplabcut(
-    numbered: list[tuple[int, str]], fps: float | None, min_likelihood: float
+    numbered: list[tuple[int, str]], fps: float | None, min_likelihood: float,
+    individual: str | None = None,
 ) -> LogSource:
     """Read a DeepLabCut CSV (see the module doc)."""
     lines = table_lines(numbered, ",")
@@ -66,11 +76,23 @@ def read_deeplabcut(
     rows = np.array([line.number for line in data])
     frame_raw = numeric_column(data, 0, "frame index")
     t, frame = frames_to_time(frame_raw, rows, fps, "frame index")
+    keep = None
+    if "individuals" in header:
+        cells = [_cell(header["individuals"], i) for i in range(1, n_columns)]
+        found = list(dict.fromkeys(c for c in cells if c and c != UNIQUE))
+        keep = {choose_individual(found, individual), UNIQUE, ""}
+    elif individual is not None:
+        raise TrebuchetInputError(
+            f"individual={individual!r}, but this is a single-animal DeepLabCut file")
     parts: dict[str, dict[str, int]] = {}
     for i in range(1, n_columns):
         part = _cell(header["bodyparts"], i)
-        if "individuals" in header and _cell(header["individuals"], i):
-            part = f"{_cell(header['individuals'], i)}/{part}"
+        if keep is not None:
+            who = _cell(header["individuals"], i)
+            if who not in keep:
+                continue
+            if who:
+                part = f"{who}/{part}"
         parts.setdefault(part, {})[coords_line.cells[i].lower()] = i
     bare = [p.rsplit("/", 1)[-1] for p in parts]
     tracks = []
@@ -98,6 +120,63 @@ def read_deeplabcut(
         frame=frame,
         fps=fps,
     )
+
+
+#: The individual under which multi-animal files keep their unique bodyparts.
+UNIQUE = "single"
+#: HDF keys DeepLabCut writes: analyses, and stitched multi-animal tracks.
+H5_KEYS = ("df_with_missing", "tracks")
+
+
+def read_deeplabcut_h5(path: str | Path, fps: float | None, min_likelihood: float,
+                       individual: str | None = None) -> LogSource:
+    """Read a DeepLabCut .h5 (pandas HDF; see the module doc). ``path`` is opened here;
+    errors leave its name to the caller, as the text readers do."""
+    import pandas as pd
+
+    try:
+        with pd.HDFStore(path, mode="r") as store:
+            keys = [k.lstrip("/") for k in store.keys()]
+            key = next((k for k in H5_KEYS if k in keys), keys[0] if len(keys) == 1 else None)
+            if key is None:
+                raise TrebuchetInputError(
+                    f"no DeepLabCut table in this HDF5 file (keys: {', '.join(keys) or 'none'};"
+                    f" expected {' or '.join(H5_KEYS)})")
+            df = store[key]
+    except ImportError:
+        raise TrebuchetInputError(
+            "reading a DeepLabCut .h5 needs the package tables (pip install tables)"
+        ) from None
+    columns = df.columns
+    names = list(columns.names) if isinstance(columns, pd.MultiIndex) else []
+    if "bodyparts" not in names or "coords" not in names:
+        raise TrebuchetInputError(
+            f"key '{key}' is no DeepLabCut table (column levels: "
+            f"{', '.join(str(n) for n in names) or 'none'}; expected scorer, bodyparts, coords)")
+    chosen = None
+    if "individuals" in names:
+        found = list(dict.fromkeys(v for v in columns.get_level_values("individuals")
+                                   if v != UNIQUE))
+        chosen = choose_individual(found, individual)
+    elif individual is not None:
+        raise TrebuchetInputError(
+            f"individual={individual!r}, but this is a single-animal DeepLabCut file")
+    frames = np.asarray(df.index, dtype=float)
+    seen: dict[str, dict[str, np.ndarray]] = {}
+    for col in columns:
+        level = dict(zip(names, col, strict=True))
+        who = level.get("individuals")
+        if who is not None and who not in (chosen, UNIQUE):
+            continue
+        name = f"{who}/{level['bodyparts']}" if who else str(level["bodyparts"])
+        seen.setdefault(name, {})[str(level["coords"]).lower()] = df[col].to_numpy(float)
+    parts: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
+    for name, coords in seen.items():
+        if "x" not in coords or "y" not in coords:
+            raise TrebuchetInputError(f"bodypart '{name}' lacks an x or y column")
+        parts[name] = (coords["x"], coords["y"], coords.get("likelihood"))
+    return keypoint_source("deeplabcut", frames, np.arange(len(frames)) + 1, parts, fps,
+                           min_likelihood)
 
 
 def _cell(cells: list[str], i: int) -> str:

@@ -6,12 +6,14 @@ Layout::
     t (s),theta (deg),psi (deg),phi (deg)
     0.000,-50.0,-90.0,-180.0
 
-* time: ``t`` or ``time`` (unit s unless written: ``t (ms)``, ``time [s]``), or ``frame``
-  (frame numbers, needs ``fps``; ``t = frame / fps``). With both, the time column is used
-  and the frame numbers are kept in ``attrs["frame"]``.
+* time: ``t`` or ``time`` (unit written: ``t (ms)``, ``time [s]``; without one, stated
+  by ``time_unit=`` or decided from the frame pattern, see :mod:`.time_units`), or
+  ``frame`` (frame numbers, needs ``fps``; ``t = frame / fps``). With both, the time
+  column is used and the frame numbers are kept in the result's ``frame``.
 * angles: ``theta``, ``psi``, ``phi`` (or ``θ``, ``ψ``, ``φ``), case-insensitive, unit in
-  parentheses or brackets. **An angle column without a unit is in radians** (no guessing
-  from the values).
+  parentheses or brackets. An angle column without a unit is in the unit of
+  ``angle_unit=``, else decided from the values by :func:`read_log` (the beam's sweep,
+  see :func:`.units.decide_angle_unit`), the decision reported.
 * delimiter: comma, semicolon or tab (decimal comma allowed with the latter two).
 """
 
@@ -28,14 +30,16 @@ from trebuchet.ingest.readers.table import (
     numeric_column,
     sniff_delimiter,
 )
-from trebuchet.ingest.readers.timebase import frames_to_time
+from trebuchet.ingest.readers.time_units import decide_time_unit, stated_time_unit
+from trebuchet.ingest.readers.timebase import check_time, frames_to_time
 from trebuchet.ingest.readers.units import angle_factor, split_unit, time_factor
 
 TIME_NAMES = frozenset({"t", "time"})
 FRAME_NAMES = frozenset({"frame", "frames", "frame number", "frame_number"})
 
 
-def read_generic(numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
+def read_generic(numbered: list[tuple[int, str]], fps: float | None,
+                 time_unit: str | None = None) -> LogSource:
     """Read a generic angle log from its numbered non-blank lines (see the module doc)."""
     numbered = [(n, s) for n, s in numbered if not s.lstrip().startswith("#")]
     if not numbered:
@@ -53,19 +57,30 @@ def read_generic(numbered: list[tuple[int, str]], fps: float | None) -> LogSourc
             )
     rows = np.array([line.number for line in data])
     frame = None
+    decisions = []
     if frame_cols:
         i = frame_cols[0]
         raw = numeric_column(data, i, header[i])
         if not time_cols:
             t, frame = frames_to_time(raw, rows, fps, header[i])
             time_label = header[i]
+            decisions.append(f"time: frame numbers of '{header[i]}' / fps")
         elif np.isfinite(raw).all() and (raw == np.round(raw)).all():
             frame = raw.astype(np.int64)
     if time_cols:
         i = time_cols[0]
-        factor = time_factor(header[i], names[i][1], default=1.0)
-        t = numeric_column(data, i, header[i]) * factor
         time_label = header[i]
+        raw = numeric_column(data, i, header[i])
+        if names[i][1] is None:
+            check_time(raw, rows, header[i])
+            t, counted, _, decision = decide_time_unit(raw, rows, header[i], fps, time_unit,
+                                                       "CSV")
+            if counted is not None:
+                frame = counted
+        else:
+            t = raw * time_factor(header[i], names[i][1], default=1.0)
+            decision = stated_time_unit(header[i], names[i][1], time_unit)
+        decisions.append(decision)
     elif not frame_cols:
         raise TrebuchetInputError(
             f"no time column: expected 't', 'time' or 'frame' "
@@ -82,6 +97,8 @@ def read_generic(numbered: list[tuple[int, str]], fps: float | None) -> LogSourc
         for i in range(len(header))
         if i not in used and header[i]
     ]
+    unitless = frozenset(header[i] for i in range(len(header))
+                         if i not in used and header[i] and names[i][1] is None)
     return LogSource(
         fmt="generic",
         t=t,
@@ -90,11 +107,14 @@ def read_generic(numbered: list[tuple[int, str]], fps: float | None) -> LogSourc
         angle_columns=candidates,
         frame=frame,
         fps=fps,
+        unitless=unitless,
+        decisions=decisions,
     )
 
 
 def _angle_getter(data: list[Line], index: int, header: str, unit: str | None):
-    """A function returning column ``index`` in rad (unit from the header, rad if none)."""
+    """A function returning column ``index`` in rad (unit from the header), or as written
+    when the header has no unit (read_log decides it)."""
 
     def get() -> np.ndarray:
         factor = angle_factor(header, unit, default=1.0)

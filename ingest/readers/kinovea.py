@@ -9,13 +9,18 @@ Layout::
 * every cell quoted; empty cells (no quotes) for missing positions;
 * separator ``;`` when the decimal mark is a comma (older versions: ``,`` with quoted
   decimal-comma numbers, both read);
-* ``Time``: **milliseconds** when the header has no unit (the kinematics dialogs always
-  export whole milliseconds); a unit in the header (``Time (s)``) is used. A unit-less
-  time with fractions is an error (add the unit). Kinovea can set a time origin
-  anywhere: times may be negative;
+* ``Time``: Kinovea writes it without a unit, in the unit of the user's time-code
+  preference: s (ClassicTime, the default; whole ms up to 2025.1), ms (the kinematics
+  dialogs of 0.8-0.9: whole ms; the Milliseconds preference: fractional), µs or frame
+  numbers. ``time_unit=`` states it; else it is decided from the frame pattern
+  (:mod:`.time_units`) and the decision reported. A unit in the header (``Time (s)``) is
+  used. Kinovea can set a time origin anywhere: times may be negative;
 * whole-millisecond times are replaced by exact frame times: ``round(t fps) / fps`` when
   ``fps`` is given, else a frame grid fitted to the times (kept only if it reproduces
-  every time within 0.5 ms);
+  every time within 0.5 ms); other times go on the grid k/fps when ``fps`` is given and
+  they lie within 0.001 frame of it (single precision);
+* coordinates: world space (calibrated, y up) or image space (pixels, y down), which the
+  header does not tell: :func:`read_log` tells them from the engine at rest;
 * points are ``<object>/<point>`` and can be named that way, by ``<point>`` alone when
   unique, or by ``<object>`` when the object has a single point; coordinates are
   Kinovea's calibrated ones, y up.
@@ -37,6 +42,7 @@ from trebuchet.ingest.readers.table import (
     sniff_delimiter,
     table_lines,
 )
+from trebuchet.ingest.readers.time_units import decide_time_unit, stated_time_unit
 from trebuchet.ingest.readers.timebase import check_time, snap_rounded_times
 from trebuchet.ingest.readers.units import split_unit, time_factor
 
@@ -54,33 +60,33 @@ def looks_like_kinovea(numbered: list[tuple[int, str]]) -> bool:
     return any(_COORD.match(c) for c in cells[1:])
 
 
-def read_kinovea(numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
+def read_kinovea(numbered: list[tuple[int, str]], fps: float | None,
+                 time_unit: str | None = None) -> LogSource:
     """Read a Kinovea trajectory CSV (see the module doc)."""
     delimiter = sniff_delimiter(numbered[0][1])
     header_line, data = header_and_rows(numbered, delimiter)
     header = header_line.cells
     rows = np.array([line.number for line in data])
     raw = numeric_column(data, 0, header[0])
+    check_time(raw, rows, header[0])
     _, unit = split_unit(header[0])
+    frame = None
     if unit is None:
-        fractional = np.abs(raw - np.round(raw)) > 1e-9
-        if fractional.any():
-            k = int(np.argmax(fractional))
-            raise TrebuchetInputError.at(
-                f"row {rows[k]}, column '{header[0]}'", f"time {raw[k]:g} has a "
-                f"fraction, but a Kinovea time without a unit is read in whole milliseconds; "
-                f"write the unit into the header, e.g. 'Time (s)'"
-            )
-    factor = time_factor(header[0], unit, default=1e-3)
-    t = raw * factor
-    check_time(t, rows, header[0])
+        t, frame, unit, decision = decide_time_unit(raw, rows, header[0], fps, time_unit,
+                                                    "Kinovea")
+    else:
+        t = raw * time_factor(header[0], unit, default=1e-3)
+        decision = stated_time_unit(header[0], unit, time_unit)
     repairs: list[str] = []
     ms = t * 1e3
-    if np.isfinite(ms).all() and (np.abs(ms - np.round(ms)) < 1e-6).all():
-        # a fitted frame rate is only reported in the note, never taken as the file's fps
+    if frame is None and (np.abs(ms - np.round(ms)) < 1e-6).all():
+        # whole ms (the kinematics dialogs, ClassicTime up to 2025.1); a fitted frame rate
+        # is only reported in the note, never taken as the file's fps
         t, _, note = snap_rounded_times(t, rows, fps, step=1e-3)
         if note:
             repairs.append(note)
+    elif frame is None and fps is not None:
+        t = _on_frame_grid(t, fps)
     pairs = _point_columns(header)
     objects: dict[str, int] = {}
     for name in pairs:
@@ -112,9 +118,22 @@ def read_kinovea(numbered: list[tuple[int, str]], fps: float | None) -> LogSourc
         rows=rows,
         time_label=header[0],
         point_tracks=tracks,
+        frame=frame,
         fps=fps,
         repairs=repairs,
+        decisions=[decision],
+        y_down=None,
     )
+
+
+def _on_frame_grid(t: np.ndarray, fps: float) -> np.ndarray:
+    """Kinovea's times (frames from the time origin times the frame interval, written in
+    single precision with 7 digits) put back on the frame grid k/fps when each lies within
+    0.001 of a frame from it; else as written."""
+    k = np.round(t * fps)
+    if (np.abs(t * fps - k) <= 1e-3).all():
+        return k / fps
+    return t
 
 
 def _point_columns(header: list[str]) -> dict[str, tuple[int, int]]:

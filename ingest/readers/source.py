@@ -30,6 +30,7 @@ class ParsedLog:
     point_names: dict[str, str] | None = None
     repairs: list[str] = field(default_factory=list)
     leaves_sling: tuple[float, float] | None = None
+    decisions: list[str] = field(default_factory=list)
 
     def take(self, keep: np.ndarray) -> None:
         """Keep only the rows where the boolean mask ``keep`` is true (in place)."""
@@ -52,6 +53,14 @@ class LogSource:
     position in the file's length unit, y up, NaN where missing, and an optional repair
     sentence (e.g. positions of low likelihood dropped). Numbers are parsed only when a
     candidate is used, so text in a column nobody asked for is no error.
+
+    ``unitless`` holds the labels of angle columns whose header states no unit: their
+    ``data`` returns the numbers as written, and :func:`read_log` decides the unit (from
+    ``angle_unit=`` or the values). ``rates`` maps an angle column's label to a function
+    returning its rate column as written (Tracker's ω: dθ/dt in the same angle unit, per
+    s), which confirms the time unit. ``decisions`` says how each unit was decided.
+    ``y_down`` is None when the file does not say which way its y axis points (Kinovea's
+    world and image spaces share one header): :func:`read_log` tells it from the engine.
     """
 
     fmt: str
@@ -63,3 +72,7 @@ class LogSource:
     frame: np.ndarray | None = None
     fps: float | None = None
     repairs: list[str] = field(default_factory=list)
+    unitless: frozenset[str] = frozenset()
+    rates: dict = field(default_factory=dict)
+    decisions: list[str] = field(default_factory=list)
+    y_down: bool | None = False

@@ -8,9 +8,11 @@ Layout, as Tracker writes it (tab by default; comma, semicolon or space possible
     0,000E0<tab>-5,0E1<tab>...      <- numbers; decimal comma in some locales
 
 * time: the first column, ``t`` in s (or ``frame`` numbers, which need ``fps``);
-* angles: Tracker's angle columns (``θ``, ``θv``, ...) are in **degrees**, Tracker's
-  default; if your Tracker is set to radians write the unit into the header,
-  ``θ (rad)``. Other columns (data tracks) need a unit in the header to be used as angles;
+* angles: Tracker's angle columns (``θ``, ``θv``, ..., ``ω``, ``α``) are written in
+  degrees (Tracker's default) or radians (its preference) under the same names; read_log
+  takes ``angle_unit=`` or decides from the values, and checks the time against the
+  track's ω (dθ/dt in the same unit). Other columns (data tracks) need a unit in the
+  header to be used as angles;
 * a column is named ``<track>/<column>`` (e.g. ``beam/θ``); a track's name alone means
   its ``θ`` column (``columns={"beam": "theta", "arm": "psi", "sling": "phi"}``). A
   track named ``theta``, ``psi`` or ``phi`` (or ``θ``, ``ψ``, ``φ``) needs no mapping;
@@ -33,10 +35,14 @@ from trebuchet.ingest.readers.table import (
     split_cells,
     table_lines,
 )
+from trebuchet.ingest.readers.time_units import decide_time_unit, stated_time_unit
 from trebuchet.ingest.readers.timebase import frames_to_time
 from trebuchet.ingest.readers.units import ANGLE_UNITS, angle_factor, split_unit, time_factor
 
 TIME_HEADERS = ("t", "frame")
+#: Tracker's angle columns: angle, angular velocity and acceleration, all written in the
+#: angle-unit preference (degrees or radians) under the same names.
+ANGLE_SIGNS = ("θ", "ω", "α")
 
 
 def _delimiter(header: str) -> str:
@@ -74,7 +80,8 @@ def looks_like_tracker(numbered: list[tuple[int, str]]) -> bool:
     return first in TIME_HEADERS and len(names) >= 1
 
 
-def read_tracker(numbered: list[tuple[int, str]], fps: float | None) -> LogSource:
+def read_tracker(numbered: list[tuple[int, str]], fps: float | None,
+                time_unit: str | None = None) -> LogSource:
     """Read a Tracker export (see the module doc)."""
     lines = list(numbered)
     if lines[0][1].strip().startswith("#multi:"):
@@ -101,14 +108,24 @@ def read_tracker(numbered: list[tuple[int, str]], fps: float | None) -> LogSourc
     rows = np.array([line.number for line in data])
     raw_time = numeric_column(data, 0, header[0])
     frame = None
-    time_name, time_unit = split_unit(header[0])
+    time_name, unit_written = split_unit(header[0])
     if time_name == "frame":
         t, frame = frames_to_time(raw_time, rows, fps, header[0])
+        decision = f"time: frame numbers of '{header[0]}' / fps"
+    elif unit_written is not None:
+        t = raw_time * time_factor(header[0], unit_written, default=1.0)
+        decision = stated_time_unit(header[0], unit_written, time_unit)
+    elif time_unit is not None:
+        t, frame, _, decision = decide_time_unit(raw_time, rows, header[0], fps, time_unit,
+                                                 "Tracker")
     else:
-        t = raw_time * time_factor(header[0], time_unit, default=1.0)
+        t = raw_time
+        decision = f"time unit of '{header[0]}': s (Tracker writes its time in s)"
     tracks = _track_spans(names, len(header))
     angle_columns: list[Candidate] = []
     point_tracks: list[Candidate] = []
+    unitless: set[str] = set()
+    rates: dict = {}
     for track, cols in tracks:
         theta_cols = [i for i in cols if split_unit(header[i])[0] == "θ"]
         by_name = {split_unit(header[i])[0]: i for i in cols}
@@ -129,6 +146,10 @@ def read_tracker(numbered: list[tuple[int, str]], fps: float | None) -> LogSourc
                     data=_angle_getter(data, i, label, base, unit),
                 )
             )
+            if unit is None and base.startswith(ANGLE_SIGNS):
+                unitless.add(label)
+            if base == "θ" and "ω" in by_name and split_unit(header[by_name["ω"]])[1] is None:
+                rates[label] = _raw_getter(data, by_name["ω"], f"{track}/ω" if track else "ω")
         if "x" in by_name and "y" in by_name and track:
             point_tracks.append(
                 Candidate(
@@ -147,6 +168,9 @@ def read_tracker(numbered: list[tuple[int, str]], fps: float | None) -> LogSourc
         point_tracks=point_tracks,
         frame=frame,
         fps=fps,
+        unitless=frozenset(unitless),
+        rates=rates,
+        decisions=[decision],
     )
 
 
@@ -167,18 +191,25 @@ def _track_spans(names: list[str], n_columns: int) -> list[tuple[str, list[int]]
 def _angle_getter(
     data: list[Line], index: int, label: str, base: str, unit: str | None
 ):
-    """A function returning a Tracker column in rad: θ... columns default to degrees."""
+    """A function returning a Tracker column in rad, or as written for Tracker's own angle
+    columns (θ..., ω, α) without a unit (read_log decides it: degrees or radians by the
+    preference, under the same names)."""
 
     def get() -> np.ndarray:
-        if unit is None and not base.startswith("θ"):
+        if unit is None and not base.startswith(ANGLE_SIGNS):
             raise TrebuchetInputError.at(
                 f"column '{label}'", f"no unit; write it into the header, e.g. "
                 f"'{base} (deg)' (known: {', '.join(sorted(ANGLE_UNITS))})"
             )
-        factor = angle_factor(label, unit, default=ANGLE_UNITS["deg"])
+        factor = angle_factor(label, unit, default=1.0)
         return numeric_column(data, index, label) * factor
 
     return get
+
+
+def _raw_getter(data: list[Line], index: int, label: str):
+    """A function returning a column as written."""
+    return lambda: numeric_column(data, index, label)
 
 
 def _point_getter(data: list[Line], ix: int, iy: int, track: str):
