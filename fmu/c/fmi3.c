@@ -1,0 +1,1 @@
+/* FMI 3.0 layer: not yet written. */
