@@ -177,7 +177,8 @@ def model_description(guid: str, fmi: int, source_files: tuple[str, ...]) -> byt
     categories = ET.SubElement(root, "LogCategories")
     for name in ("logStatusError", "logStatusWarning"):
         ET.SubElement(categories, "Category", name=name)
-    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime="1.5", stepSize="0.001")
+    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime="1.5", stepSize="0.001",
+                  tolerance="1e-10")
     if fmi == 2:
         index = {v.name: i for i, v in enumerate(VARIABLES, start=1)}
         _variables_fmi2(root, index)

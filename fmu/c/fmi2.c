@@ -36,7 +36,7 @@ static void logf2(Instance *c, fmi2Status status, const char *category, const ch
     va_start(ap, fmt);
     vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
-    c->logger(c->env, c->name, status, category, "%s", text);
+    c->logger(c->env, c->name, status, category, text);  /* formatted, as the Reference FMUs */
 }
 
 static fmi2Status fail(Instance *c, const char *msg)
