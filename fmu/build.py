@@ -29,9 +29,10 @@ __all__ = ["build_fmu", "fmi_headers", "compile_binary", "MODEL_NAME", "CFLAGS"]
 CFLAGS = ("-O2", "-std=c99", "-Wall", "-Wextra", "-Wno-unused-parameter")
 _HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
             3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
-#: Platform folder, compiler, shared-library suffix and extra flags of each binary built.
-PLATFORMS = (("linux64", "gcc", ".so", ("-fPIC",)),
-             ("win64", "x86_64-w64-mingw32-gcc", ".dll", ("-static",)))
+#: Platform folder (FMI 2, FMI 3), compiler, shared-library suffix and extra flags of each
+#: binary built.
+PLATFORMS = ((("linux64", "x86_64-linux"), "gcc", ".so", ("-fPIC",)),
+             (("win64", "x86_64-windows"), "x86_64-w64-mingw32-gcc", ".dll", ("-static",)))
 
 
 def fmi_headers(fmi: int) -> list[Path]:
@@ -84,10 +85,10 @@ def build_fmu(target: str | Path, fmi: int = 2) -> Path:
                 (src / name).unlink()
         (src / "buildDescription.xml").write_bytes(_build_description(fmi))
         binaries = []
-        for platform, compiler, suffix, extra in PLATFORMS:
+        for platforms, compiler, suffix, extra in PLATFORMS:
             if shutil.which(compiler) is None:
                 continue
-            out = root / "binaries" / platform / f"{MODEL_NAME}{suffix}"
+            out = root / "binaries" / platforms[fmi - 2] / f"{MODEL_NAME}{suffix}"
             out.parent.mkdir(parents=True)
             binaries.append(compile_binary(src, fmi, out, compiler, extra))
         md = model_description(guid, fmi, (*C_SOURCES, f"fmi{fmi}.c"))

@@ -68,7 +68,7 @@ def c_name(name: str) -> str:
 def generate_variables_header(guid: str) -> str:
     """``treb_variables.h``: one entry per variable of the interface table, the value
     reference being its position, and the FMU's ``guid`` (instantiation token)."""
-    kinds = {"Real": 0, "Integer": 1, "Enumeration": 1, "Boolean": 2}
+    kinds = {"Real": 0, "Integer": 1, "Boolean": 2, "Enumeration": 3}
     causalities = {"parameter": 0, "input": 1, "output": 2}
     starts = []
     for v in VARIABLES:
@@ -81,7 +81,7 @@ def generate_variables_header(guid: str) -> str:
              f"#define TREB_VR_FIRST_OUTPUT {VARIABLES.index(_var('phase')) + 1}"
              "  /* after phase: the outputs of treb_outputs*, in order */"]
     lines += [f"#define TREB_VR_{c_name(v.name)} {i}" for i, v in enumerate(VARIABLES)]
-    lines += ["enum { TREB_REAL = 0, TREB_INTEGER = 1, TREB_BOOLEAN = 2 };",
+    lines += ["enum { TREB_REAL = 0, TREB_INTEGER = 1, TREB_BOOLEAN = 2, TREB_ENUMERATION = 3 };",
               "enum { TREB_PARAMETER = 0, TREB_INPUT = 1, TREB_OUTPUT = 2 };",
               "static const int TREB_VAR_TYPE[TREB_NV] = {"
               + ", ".join(str(kinds[v.type]) for v in VARIABLES) + "};",

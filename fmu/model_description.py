@@ -22,6 +22,9 @@ MODEL_NAME = "Trebuchet"
 STATES = (("theta", "theta_d"), ("psi", "psi_d"), ("phi", "phi_d"),
           ("theta_d", "theta_dd"), ("psi_d", "psi_dd"), ("phi_d", "phi_dd"))
 N_EVENT_INDICATORS = 3
+_INDICATORS = ("phase I: lift-off margin F_N/(m g); phase II: projectile height (m)",
+               "phase I: sling upright margin; phase II: climb margin (m/s, release angle)",
+               "unused (1)")
 _DESCRIPTION = ("Swinging-counterweight trebuchet after Horsdal: angles, internal forces, torque, "
                 "rates of work and energies of a shot, with a release command input "
                 f"(trebuchet {__version__}, native C)")
@@ -122,6 +125,10 @@ def _variables_fmi3(root: ET.Element) -> None:
     variables = ET.SubElement(root, "ModelVariables")
     vr_of = {v.name: vr for vr, v in enumerate(VARIABLES)}
     derivative_of = {d: s for s, d in STATES}
+    ET.SubElement(variables, "Float64", name="time",
+                  valueReference=str(len(VARIABLES) + N_EVENT_INDICATORS),
+                  causality="independent", variability="continuous", unit="s",
+                  description="time after the trigger")
     for vr, v in enumerate(VARIABLES):
         attributes = {"name": v.name, "valueReference": str(vr), "description": v.description,
                       "causality": v.causality, "variability": _variability(v),
@@ -129,6 +136,10 @@ def _variables_fmi3(root: ET.Element) -> None:
         if v.name in derivative_of:
             attributes["derivative"] = str(vr_of[derivative_of[v.name]])
         ET.SubElement(variables, _FMI3_TYPES[v.type], attributes)
+    for k in range(N_EVENT_INDICATORS):
+        ET.SubElement(variables, "Float64", name=f"event_indicator[{k + 1}]",
+                      valueReference=str(len(VARIABLES) + k), causality="local",
+                      variability="continuous", description=_INDICATORS[k])
 
 
 def _structure_fmi3(root: ET.Element) -> None:

@@ -176,7 +176,9 @@ fmi2Status fmi2Reset(fmi2Component comp)
 
 static int valid_vr(Instance *c, fmi2ValueReference vr, int type)
 {
-    if (vr >= TREB_NV || TREB_VAR_TYPE[vr] != type) {
+    int have = vr < TREB_NV ? TREB_VAR_TYPE[vr] : -1;
+    if (have == TREB_ENUMERATION) have = TREB_INTEGER;  /* FMI 2: Enumerations are Integers */
+    if (have != type) {
         logf2(c, fmi2Error, "logStatusError", "value reference %u is not a variable of this "
               "type", (unsigned)vr);
         return 0;
