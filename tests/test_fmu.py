@@ -215,6 +215,8 @@ def test_fmu_holds_binaries_and_sources(fmu_path):
     assert {"sources/buildDescription.xml", "sources/treb_formulas.c", "sources/fmi2.c",
             "sources/fmi2Functions.h"} <= names
     assert not any("python" in n.lower() for n in names)
+    if shutil.which("x86_64-w64-mingw32-gcc"):  # the build cross-compiles where it can
+        assert "binaries/win64/Trebuchet.dll" in names
 
 
 # --------------------------------------------------------------------------- runs in fmpy
