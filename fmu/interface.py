@@ -1,14 +1,17 @@
 """The FMU's variables: every scene key as a parameter, the release command, every output.
 
-One table, :data:`VARIABLES`, is the interface: the slave registers its variables from it (in
-this order, so value references are the positions in the table) and the build writes units,
-ranges and the model structure of ``modelDescription.xml`` from it. Parameter names are the
-scene file's ``[section] key`` written ``section.key``; :func:`scene_from_parameters` turns
-their values into a :class:`~trebuchet.model.scene.Scene` through ``Scene.from_dict``, so a
-bad value fails with the scene's own message.
+One table, :data:`VARIABLES`, is the interface: value references are the positions in the
+table (the C glue's ``treb_variables.h`` is generated from it), and the build writes units,
+display units, ranges, Enumerations and the model structure of ``modelDescription.xml`` from
+it. Parameter names are the scene file's ``[section] key`` written ``section.key``; the choices
+(counterweight, projectile, flight model) are Enumerations whose FMI values count from 1.
+:func:`scene_from_parameters` turns parameter values into a
+:class:`~trebuchet.model.scene.Scene` through ``Scene.from_dict`` (the in-process reference
+the tests compare the FMU with); the FMU's C checks the same rules with the same messages.
 
-Units are SI (m, kg, kg m², s, N, N m, W, J) except the start pose and release angle, which
-are in degrees as in the scene file (``*_deg``).
+Units are SI (m, kg, kg m², s, N, N m, W, J, rad) except the start pose and release angle,
+which are in degrees as in the scene file (``*_deg``); the angle outputs are in rad, shown in
+deg (display unit).
 """
 
 from __future__ import annotations

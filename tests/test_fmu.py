@@ -252,10 +252,11 @@ def test_lift_off_and_release_fall_inside_steps(step_runs, horsdal):
 @pytest.mark.parametrize("changes", [
     {"engine.counterweight": 2, "engine.L3": 0.5, "start.psi_deg": 130.0},
     {"release.time": 0.0, "release.velocity_angle_deg": 40.0},
+    {"release.velocity_angle_deg": 30.0},  # both rules: the first reached releases
     {"start.projectile": 2, "engine.H": 12.0, "start.phi_deg": -90.0},
     {"start.projectile": 3, "release.time": 0.0},
     {"flight.model": 2, "flight.diameter": 0.3},
-], ids=["fixed", "angle", "sling", "dry", "drag"])
+], ids=["fixed", "angle", "both", "sling", "dry", "drag"])
 def test_cosimulation_of_variants_equals_in_process(fmu_path, changes):
     from fmpy import simulate_fmu
 
@@ -286,6 +287,21 @@ def test_model_exchange_under_cvode_equals_in_process(fmu_path):
     ref = ref[keep].reset_index(drop=True)
     result = pd.DataFrame({n: result[n] for n in result.dtype.names})[keep]
     assert_outputs_equal(result.reset_index(drop=True), ref, "model exchange", rel=REL_ME)
+
+
+def test_model_exchange_release_command_input(fmu_path):
+    from fmpy import simulate_fmu
+
+    command = np.array([(0.0, False), (0.85, True), (1.5, True)],
+                       dtype=[("time", float), ("release_command", bool)])
+    result = simulate_fmu(str(fmu_path), stop_time=1.5, output_interval=1e-3,
+                          fmi_type="ModelExchange", input=command, record_events=False)
+    ref = reference(result["time"], command_time=0.85, t_stop=1.5)
+    keep = np.abs(result["time"] - 0.85) > 1e-9  # the event's own point: right vs left limit
+    assert result["phase"][~keep][0] == 3 and ref["phase"][~keep].iloc[0] == 2
+    frame = pd.DataFrame({n: result[n] for n in result.dtype.names})[keep]
+    assert_outputs_equal(frame.reset_index(drop=True), ref[keep].reset_index(drop=True),
+                         "model exchange, release command", rel=REL_ME)
 
 
 def test_bad_parameter_is_an_error_naming_the_key_and_instantiates_again(fmu_path, unzipped):
