@@ -89,6 +89,9 @@ def engine_namespace(q: Sequence[Any], fixed: bool) -> SimpleNamespace:
                            fixed_counterweight=fixed)
 
 
+#: How closely a generated Jacobian matches the central difference (relative to its peak).
+JACOBIAN_TOLERANCE = 1e-6
+
 Build = Callable[[SimpleNamespace, Any, Any, dict[str, Any], Any], Sequence[Any]]
 
 
@@ -97,7 +100,10 @@ class Formula:
     """One generated C function: its name, what it is, its inputs ``x`` and outputs ``out``
     (names), and ``build(e, g, H, x, lib)``, the model's Python giving the outputs (``lib``
     :mod:`math` on floats, :func:`sympy_math` on symbols). ``fixed``: the counterweight rigid
-    on the beam (None: the formula does not depend on it). ``dry``: no projectile (m = 0)."""
+    on the beam (None: the formula does not depend on it). ``dry``: no projectile (m = 0).
+    ``tolerance``: how closely the compiled C matches ``build`` on floats, relative to each
+    output's peak: rounding for the formulas, the central difference's own error for the
+    Jacobians (whose ``build`` on floats differentiates numerically)."""
 
     name: str
     doc: str
@@ -106,6 +112,7 @@ class Formula:
     build: Build
     fixed: bool | None = None
     dry: bool = False
+    tolerance: float = 1e-12
 
 
 def _angles(phase: int, x: dict[str, Any], e: Any, g: Any, H: Any, lib: Any) -> tuple:
@@ -132,6 +139,32 @@ def _outputs(phase: int) -> Build:
         cols = dict(zip(frc.ROW_COLUMNS, row, strict=True))
         return [th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd,
                 *(cols[n] for n in LOAD_OUTPUTS)]
+    return build
+
+
+#: Relative step of the central differences that check the generated Jacobians.
+FD_STEP = 1e-5
+
+
+def _jacobian(phase: int) -> Build:
+    """d(outputs)/d(state) of ``phase``, row-major (output by output): sympy's derivative of
+    the outputs on symbols; a central difference of the same Python on floats."""
+    outputs = _outputs(phase)
+    states = _STATE[phase]
+
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+        if lib is math:
+            columns = []
+            for n in states:
+                h = FD_STEP * max(1.0, abs(x[n]))
+                up = outputs(e, g, H, {**x, n: x[n] + h}, lib)
+                down = outputs(e, g, H, {**x, n: x[n] - h}, lib)
+                columns.append([(a - b) / (2.0 * h) for a, b in zip(up, down, strict=True)])
+            return [columns[j][i] for i in range(len(columns[0])) for j in range(len(states))]
+        import sympy as sp
+
+        values = [sp.sympify(v) for v in outputs(e, g, H, x, lib)]
+        return [sp.nan if v is sp.nan else sp.diff(v, x[n]) for v in values for n in states]
     return build
 
 
@@ -211,6 +244,11 @@ def _all_formulas() -> tuple[Formula, ...]:
                                (*_STATE[phase], *_REST), angles_loads, _outputs(phase), fixed))
         out.append(Formula(f"outputs3_{cw}_dry", "dry fire (no projectile): angles and loads",
                            (*_STATE[3], *_REST), angles_loads, _outputs(3), fixed, dry=True))
+        for phase in (1, 2, 3):
+            out.append(Formula(f"jacobian{phase}_{cw}", f"phase {phase}: d(outputs)/d(state), "
+                               "row-major", (*_STATE[phase], *_REST),
+                               tuple(f"d{o}/d{n}" for o in angles_loads for n in _STATE[phase]),
+                               _jacobian(phase), fixed, tolerance=JACOBIAN_TOLERANCE))
         out.append(Formula(f"lift_off_{cw}", "phase_events.lift_off_margin: F_N / (m g)",
                            _STATE[1], ("margin",), _event(pev.LIFT_OFF, 1), fixed))
     out += [

@@ -4,7 +4,8 @@ One FMU for both interface types: FMI 2.0 (``ModelExchange`` and ``CoSimulation`
 with one model identifier) or FMI 3.0. Units, display units (deg for the angles), ranges,
 Enumerations for the choices, the model structure with the states θ, ψ, φ and their rates
 (their derivatives are the outputs ``*_d`` and ``*_dd``) and the capabilities of the C code
-(FMU state get, set and serialise; no directional derivatives).
+(FMU state get, set and serialise; in model exchange, directional derivatives of the outputs
+with respect to the states, from the generated Jacobians).
 """
 
 from __future__ import annotations
@@ -169,7 +170,8 @@ def model_description(guid: str, fmi: int, source_files: tuple[str, ...]) -> byt
         caps2 = {"canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true",
                  "canNotUseMemoryManagementFunctions": "true"}
         me = ET.SubElement(root, "ModelExchange", modelIdentifier=MODEL_NAME,
-                           completedIntegratorStepNotNeeded="true", **caps2)
+                           completedIntegratorStepNotNeeded="true",
+                           providesDirectionalDerivative="true", **caps2)
         cs = ET.SubElement(root, "CoSimulation", modelIdentifier=MODEL_NAME,
                            canHandleVariableCommunicationStepSize="true", **caps2)
         for kind in (me, cs):
@@ -180,7 +182,8 @@ def model_description(guid: str, fmi: int, source_files: tuple[str, ...]) -> byt
         root = ET.Element("fmiModelDescription", fmiVersion="3.0", instantiationToken=guid,
                           **common)
         ET.SubElement(root, "ModelExchange", modelIdentifier=MODEL_NAME,
-                      needsCompletedIntegratorStep="false", **caps)
+                      needsCompletedIntegratorStep="false", providesDirectionalDerivatives="true",
+                      **caps)
         ET.SubElement(root, "CoSimulation", modelIdentifier=MODEL_NAME,
                       canHandleVariableCommunicationStepSize="true", **caps)
     _units(root, fmi)

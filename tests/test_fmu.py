@@ -3,6 +3,7 @@ compared with the in-process simulator at the same times. Built once per session
 
 from __future__ import annotations
 
+import ctypes
 import math
 import shutil
 import subprocess
@@ -184,6 +185,7 @@ def test_model_description(fmu_path):
     md = read_model_description(str(fmu_path), validate=True)
     assert md.coSimulation is not None and md.modelExchange is not None
     assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
+    assert md.modelExchange.providesDirectionalDerivative
     assert md.numberOfEventIndicators == 3
     by_name = {v.name: v for v in md.modelVariables}
     for p in PARAMETERS:
@@ -302,6 +304,56 @@ def test_model_exchange_release_command_input(fmu_path):
     frame = pd.DataFrame({n: result[n] for n in result.dtype.names})[keep]
     assert_outputs_equal(frame.reset_index(drop=True), ref[keep].reset_index(drop=True),
                          "model exchange, release command", rel=REL_ME)
+
+
+@pytest.mark.parametrize("changes, x", [
+    ({}, [-0.6, -1.2, 0.0, 2.0, -3.0, 0.0]),  # trough: phi and its rate follow the constraint
+    ({"start.projectile": 2, "engine.H": 12.0, "start.phi_deg": -90.0},
+     [-0.4, -1.0, -1.9, 2.5, -1.0, 4.0]),  # in the sling
+    ({"start.projectile": 3, "release.time": 0.0}, [0.3, -0.5, 0.0, 3.0, 2.0, 0.0]),  # dry
+], ids=["trough", "sling", "dry"])
+def test_directional_derivatives_equal_differences_of_the_outputs(fmu_path, unzipped, changes,
+                                                                  x):
+    """Model exchange: d(outputs)/d(states) from the generated Jacobians against central
+    differences of the FMU's own outputs (bound: the difference's error, 1e-6 of the peak)."""
+    from fmpy import read_model_description
+    from fmpy.fmi2 import FMU2Model
+
+    md = read_model_description(str(fmu_path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    types = {v.name: v.type for v in md.modelVariables}
+    fmu = FMU2Model(guid=md.guid, unzipDirectory=unzipped,
+                    modelIdentifier=md.modelExchange.modelIdentifier, instanceName="jac")
+    fmu.instantiate()
+    for name, value in changes.items():
+        if types[name] == "Enumeration":
+            fmu.setInteger([vr[name]], [value])
+        else:
+            fmu.setReal([vr[name]], [value])
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    fmu.newDiscreteStates()
+    fmu.enterContinuousTimeMode()
+    fmu.setTime(0.1)
+    outputs = [vr[n] for n in OUTPUT_NAMES[1:]]
+    states = [vr[n] for n in ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d")]
+    x = np.array(x)
+    for k, state in enumerate(states):
+        fmu.setContinuousStates((ctypes.c_double * 6)(*x), 6)
+        exact = np.array(fmu.getDirectionalDerivative(outputs, [state], [1.0]))
+        h = 1e-5 * max(1.0, abs(x[k]))
+        rows = []
+        for sign in (1.0, -1.0):
+            fmu.setContinuousStates((ctypes.c_double * 6)(*(x + sign * h * np.eye(6)[k])), 6)
+            rows.append(np.array(fmu.getReal(outputs)))
+        diff = (rows[0] - rows[1]) / (2.0 * h)
+        finite = np.isfinite(diff)
+        assert np.isfinite(exact).all()
+        scale = max(1.0, float(np.max(np.abs(diff[finite]))))
+        assert np.max(np.abs(exact[finite] - diff[finite])) <= 1e-6 * scale, state
+    fmu.terminate()
+    fmu.freeInstance()
 
 
 def test_bad_parameter_is_an_error_naming_the_key_and_instantiates_again(fmu_path, unzipped):

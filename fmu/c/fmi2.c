@@ -412,8 +412,12 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueRefer
                                         fmi2Real dvUnknown[])
 {
     Instance *c = comp;
-    (void)vUnknown; (void)nUnknown; (void)vKnown; (void)nKnown; (void)dvKnown; (void)dvUnknown;
-    return fail(c, "directional derivatives are not provided");
+    char msg[TREB_MSG];
+    CHECK("fmi2GetDirectionalDerivative", (1 << S_INIT) | RUNNING | (1 << S_TERMINATED));
+    if (treb_model_directional(&c->m, vUnknown, nUnknown, vKnown, nKnown, dvKnown, dvUnknown,
+                               msg))
+        return fail(c, msg);
+    return fmi2OK;
 }
 
 /* ------------------------------------------------------------------ co-simulation */

@@ -452,8 +452,13 @@ fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueRe
                                         const fmi3Float64 seed[], size_t ns,
                                         fmi3Float64 sensitivity[], size_t nsens)
 {
-    (void)u; (void)nu; (void)k; (void)nk; (void)seed; (void)ns; (void)sensitivity; (void)nsens;
-    return fail(instance, "directional derivatives are not provided");
+    Instance *c = instance;
+    char msg[TREB_MSG];
+    CHECK("fmi3GetDirectionalDerivative", (1 << S_INIT) | RUNNING | (1 << S_TERMINATED));
+    if (ns != nk || nsens != nu) return fail(c, "fmi3GetDirectionalDerivative: sizes differ");
+    if (treb_model_directional(&c->m, u, nu, k, nk, seed, sensitivity, msg))
+        return fail(c, msg);
+    return fmi3OK;
 }
 
 fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference u[],

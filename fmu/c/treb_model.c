@@ -152,6 +152,73 @@ void treb_model_indicators(TrebModel *m, double *z)
     }
 }
 
+/* d(outputs)/d(x) at the model exchange's state (generated Jacobian of the phase; the
+ * projectile's flight after release depends on time only). */
+static void jacobian(TrebModel *m, double J[TREB_N_OUTPUTS][TREB_NX_STATES])
+{
+    static const int beam[4] = {0, 1, 3, 4};  /* theta, psi, theta_d, psi_d in x */
+    const TrebScene *sc = &m->shot.sc;
+    double y[6], x[9], jp[TREB_N_OUTPUTS * 6];
+    int n = m->phase == 2 ? 6 : 4;
+    phase_state(m, y);
+    memcpy(x, y, n * sizeof(double));
+    memcpy(x + n, sc->rest, 3 * sizeof(double));
+    if (m->phase == 1) (sc->fixed ? treb_jacobian1_fixed : treb_jacobian1_hinged)(sc->q, x, jp);
+    else if (m->phase == 2)
+        (sc->fixed ? treb_jacobian2_fixed : treb_jacobian2_hinged)(sc->q, x, jp);
+    else (sc->fixed ? treb_jacobian3_fixed : treb_jacobian3_hinged)(sc->q, x, jp);
+    memset(J, 0, sizeof(double) * TREB_N_OUTPUTS * TREB_NX_STATES);
+    for (int i = 0; i < TREB_N_OUTPUTS; i++)
+        for (int j = 0; j < n; j++) J[i][n == 6 ? j : beam[j]] = jp[i * n + j];
+    if (m->phase == 3) {
+        static const int flight[5] = {TREB_OUT_x_m, TREB_OUT_y_m, TREB_OUT_vx_m, TREB_OUT_vy_m,
+                                      TREB_OUT_E_m};
+        for (int k = 0; k < 5; k++) memset(J[flight[k]], 0, sizeof J[0]);
+    }
+}
+
+static int state_index(unsigned vr)
+{
+    static const unsigned states[TREB_NX_STATES] = {TREB_VR_theta, TREB_VR_psi, TREB_VR_phi,
+                                                    TREB_VR_theta_d, TREB_VR_psi_d,
+                                                    TREB_VR_phi_d};
+    for (int k = 0; k < TREB_NX_STATES; k++)
+        if (states[k] == vr) return k;
+    return -1;
+}
+
+int treb_model_directional(TrebModel *m, const unsigned *unknowns, size_t n_unknowns,
+                           const unsigned *knowns, size_t n_knowns, const double *seed,
+                           double *sensitivity, char *msg)
+{
+    double J[TREB_N_OUTPUTS][TREB_NX_STATES];
+    if (m->cosim || !m->initialized) {
+        snprintf(msg, TREB_MSG, "directional derivatives are provided in model exchange, after "
+                 "initialisation, with respect to the continuous states");
+        return -1;
+    }
+    for (size_t k = 0; k < n_knowns; k++) {
+        if (state_index(knowns[k]) < 0) {
+            snprintf(msg, TREB_MSG, "directional derivative: value reference %u is not a "
+                     "continuous state", knowns[k]);
+            return -1;
+        }
+    }
+    jacobian(m, J);
+    for (size_t u = 0; u < n_unknowns; u++) {
+        long i = (long)unknowns[u] - TREB_VR_FIRST_OUTPUT;
+        if (i < 0 || i >= TREB_N_OUTPUTS) {
+            snprintf(msg, TREB_MSG, "directional derivative: value reference %u is not a Real "
+                     "output", unknowns[u]);
+            return -1;
+        }
+        double acc = 0.0;
+        for (size_t k = 0; k < n_knowns; k++) acc += J[i][state_index(knowns[k])] * seed[k];
+        sensitivity[u] = acc;
+    }
+    return 0;
+}
+
 static void release_now(TrebModel *m)
 {
     double x[4] = {m->x[0], m->x[2], m->x[3], m->x[5]}, out[4];

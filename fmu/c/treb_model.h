@@ -32,6 +32,9 @@ int treb_model_step(TrebModel *m, double t, double h, char *msg);
 int treb_model_outputs(TrebModel *m, char *msg);
 void treb_model_derivatives(TrebModel *m, double *dx);
 void treb_model_indicators(TrebModel *m, double *z);
+int treb_model_directional(TrebModel *m, const unsigned *unknowns, size_t n_unknowns,
+                           const unsigned *knowns, size_t n_knowns, const double *seed,
+                           double *sensitivity, char *msg);
 int treb_model_event(TrebModel *m, int *states_changed, int *time_defined, double *next_time,
                      char *msg);
 int treb_model_copy(TrebModel *dst, const TrebModel *src);
