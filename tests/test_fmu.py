@@ -356,12 +356,29 @@ def test_directional_derivatives_equal_differences_of_the_outputs(fmu_path, unzi
     fmu.freeInstance()
 
 
+def test_model_exchange_refuses_a_release_time_before_lift_off(fmu_path):
+    from fmpy import simulate_fmu
+    from fmpy.fmi1 import FMICallException
+
+    log: list[tuple[int, str]] = []
+
+    def logger(component, instance, status, category, message):  # noqa: ANN001, ANN202
+        log.append((status, message.decode()))
+
+    with pytest.raises(FMICallException) as err:
+        simulate_fmu(str(fmu_path), stop_time=1.5, fmi_type="ModelExchange",
+                     start_values={"release.time": 0.2}, logger=logger)
+    assert err.value.status == 3
+    assert any(s == 3 and "[release] time = 0.2 s comes before lift-off" in m for s, m in log)
+
+
 def test_bad_parameter_is_an_error_naming_the_key_and_instantiates_again(fmu_path, unzipped):
     from fmpy.fmi1 import FMICallException
 
     for changes, key in (({"engine.M": -1.0}, "[engine] M"), ({"engine.L4": 0.0}, "[engine] L4"),
                          ({"start.phi_deg": -170.0}, "[start] phi_deg"),
-                         ({"release.time": 0.0}, "[release]")):
+                         ({"release.time": 0.0}, "[release]"),
+                         ({"release.time": 0.2}, "[release] time = 0.2 s comes before")):
         slave = Slave(fmu_path, unzipped)
         slave.set(changes)
         slave.fmu.setupExperiment(startTime=0.0)

@@ -248,6 +248,11 @@ int treb_model_event(TrebModel *m, int *states_changed, int *time_defined, doubl
                      "a projectile still in the trough", sc->q[TREB_Q_M], m->time);
             return -1;
         }
+        if (z[0] <= 0.0 && m->z_ref[0] > 0.0 && sc->has_time && m->time >= sc->t_release) {
+            snprintf(msg, TREB_MSG, "FMU parameters: [release] time = %g s comes before lift-off "
+                     "at %.4g s: the projectile is still in the trough", sc->t_release, m->time);
+            return -1;
+        }
         if (z[0] <= 0.0 && m->z_ref[0] > 0.0) {  /* lift-off: the sling takes the projectile */
             double y[4] = {m->x[0], m->x[1], m->x[3], m->x[4]}, out[TREB_N_OUTPUTS];
             treb_outputs_of(sc, 1, y, out);
