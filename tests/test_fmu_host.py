@@ -71,3 +71,23 @@ def test_the_library_needs_no_python(fmu_path, tmp_path):
     needed = [line for line in dynamic.splitlines() if "(NEEDED)" in line]
     assert needed and not any("python" in line.lower() for line in needed), needed
     assert "_Py" not in dynamic
+
+
+def test_sources_compile_elsewhere_into_the_same_fmu(host, fmu_path, tmp_path):
+    """An importer compiles ``sources/`` with its own compiler command (here plain ``cc``
+    without the build's flags) and gets the same results."""
+    with zipfile.ZipFile(fmu_path) as z:
+        z.extractall(tmp_path / "unzipped")
+    sources = sorted(str(p) for p in (tmp_path / "unzipped" / "sources").glob("*.c"))
+    rebuilt = tmp_path / "Trebuchet.so"
+    subprocess.run(["cc", "-shared", "-fPIC", "-O1", *sources, "-o", str(rebuilt), "-lm"],
+                   check=True, capture_output=True)
+    repacked = tmp_path / "Rebuilt.fmu"
+    with zipfile.ZipFile(fmu_path) as zin, zipfile.ZipFile(repacked, "w") as zout:
+        for item in zin.infolist():
+            data = (rebuilt.read_bytes() if item.filename == "binaries/linux64/Trebuchet.so"
+                    else zin.read(item))
+            zout.writestr(item, data)
+    run = run_host(host, repacked, tmp_path / "run", stop=1.5, step=1e-3)
+    assert run.returncode == 0, run.message
+    _assert_equal(run.table, reference(run.table["time"], t_stop=1.5))
