@@ -12,14 +12,12 @@ $(BIN)/python:
 # The simulator is compiled once (numba, ~30 s) and cached beside its sources.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e .
-	$(BIN)/python -c 'from trebuchet.model.shot_kernel import warm_up; warm_up()'
-	$(BIN)/python -c 'from trebuchet.ingest.synthetic_shot import warm_up; warm_up()'
+	$(BIN)/python -m trebuchet.warm_up
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e '.[test]'
-	$(BIN)/python -c 'from trebuchet.model.shot_kernel import warm_up; warm_up()'
-	$(BIN)/python -c 'from trebuchet.ingest.synthetic_shot import warm_up; warm_up()'
+	$(BIN)/python -m trebuchet.warm_up
 	touch $(VENV)/.installed $@
 
 install: $(VENV)/.installed
@@ -39,7 +37,7 @@ test: install-test
 
 bench: install-test
 	$(BIN)/python -m bench
-	$(BIN)/python docs/update_readme.py
+	$(BIN)/python docs/update_docs.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info

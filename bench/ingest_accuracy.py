@@ -4,7 +4,7 @@ Two engines (the paper's, and a small one with L3 = 0.5 m whose accelerations sw
 frame rates 60–1000 fps, angle noise 0.1–2° (and the 0.3° of the issue's target), six
 seeds per cell, 2 % dropped frames, 0.3 s at rest before the trigger, the sling's track
 ending at the release. The truth is the simulation at the same frame times
-(:mod:`trebuchet.ingest.simulated_log`). Both force forms (projected, direct) run on the
+(:mod:`trebuchet.ingest.synthetic.simulated_log`). Both force forms (projected, direct) run on the
 same smoothed angles. Per run and form, over the frames of the shot (after the trigger;
 for |F_S| only up to the release, while the sling holds the projectile: after it load and
 truth are both exactly 0 and would count as covered by any band):
@@ -36,15 +36,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.ingest.noise_tuning import NoiseSearch
 from trebuchet.ingest.reconstruct import (
     ReconstructOptions,
     loads_from_smoothed,
     reconstruct,
     sling_track_end,
 )
-from trebuchet.ingest.simulated_log import SMALL_ENGINE, simulated_log
-from trebuchet.ingest.smooth import SmoothSettings, smooth
+from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
+from trebuchet.ingest.smoothing.smooth import SmoothSettings, smooth
+from trebuchet.ingest.synthetic.simulated_log import SMALL_ENGINE, simulated_log
 from trebuchet.model.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -7,7 +7,7 @@ frames, two seeds), ``reconstruct`` runs with:
 - the constant-jerk smoother (``model="cj"``) instead of constant acceleration;
 - at the maximum-likelihood ``q`` (``NoiseSearch.cutoff_factor = 1``): ``"cj"`` and the
   per-angle choice of the likelier model (``model="select"``,
-  :mod:`~trebuchet.ingest.model_choice`);
+  :mod:`~trebuchet.ingest.smoothing.model_choice`);
 - the process noise ``q`` fixed at 10× and 0.1× the maximum-likelihood one of the default
   run (per angle; the measurement noise fixed at its estimate), i.e. the tuning skipped and
   off by a decade either way.
@@ -29,10 +29,10 @@ import numpy as np
 import pandas as pd
 
 from bench.ingest_accuracy import engines, scores
-from trebuchet.ingest.noise_tuning import NoiseSearch
 from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
-from trebuchet.ingest.simulated_log import simulated_log
-from trebuchet.ingest.smooth import SmoothSettings
+from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
+from trebuchet.ingest.smoothing.smooth import SmoothSettings
+from trebuchet.ingest.synthetic.simulated_log import simulated_log
 
 ROOT_RESULTS = Path(__file__).resolve().parent / "results"
 CELLS = ((240, 0.3), (120, 1.0))

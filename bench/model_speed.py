@@ -8,7 +8,7 @@ on all alike:
   contract);
 * ``integrate``: the integration alone (:func:`trebuchet.model.simulate.integrate`);
 * ``load columns``: every load on the shot's 1500 output rows from its angles
-  (:func:`trebuchet.model.forces.load_columns`, compiled :func:`~trebuchet.model.forces.row_loads`);
+  (:func:`trebuchet.model.loads.load_columns`, compiled :func:`~trebuchet.model.forces.row_loads`);
 * ``simulate, back to back``: ``simulate`` called ``repeats`` times in a row, as a sweep does
   (the interleaved lines above run each call after the others, with colder caches);
 * ``simulate (python-DOP853)``: the same steps taken by the pure-Python DOP853 of
@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-from trebuchet.model.forces import load_columns
+from trebuchet.model.loads import load_columns
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import DEFAULT_RTOL, default_times, integrate, simulate
 

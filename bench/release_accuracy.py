@@ -1,13 +1,13 @@
 """Release found where the sling's track goes on past it: jump search against equations.
 
 The jump search alone against the default check with the engine's equations
-(``trebuchet.ingest.release_model``), through ``reconstruct``.
+(``trebuchet.ingest.events.release_model``), through ``reconstruct``.
 
 Two engines (the paper's and the small one of ``ingest_accuracy``), two kinds of sling
 track after the release (``pendulum``: the empty sling swinging on the spigot; ``stone``:
 a tracker following the stone, the direction spigot -> stone), frame rates 60–1000 fps,
 angle noise 0.1–2°, two seeds, 2 % dropped frames
-(:func:`trebuchet.ingest.simulated_log.continued_sling_log`). Per cell (mean of the seeds'
+(:func:`trebuchet.ingest.synthetic.simulated_log.continued_sling_log`). Per cell (mean of the seeds'
 absolute values):
 
 - ``jump_err`` / ``err``: release error in frames, the jump search alone
@@ -33,7 +33,7 @@ import pandas as pd
 
 from bench.ingest_accuracy import best_reconstruct_time, engines
 from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
-from trebuchet.ingest.simulated_log import continued_sling_log
+from trebuchet.ingest.synthetic.simulated_log import continued_sling_log
 
 KINDS = ("pendulum", "stone")
 FRAME_RATES = (60, 120, 240, 1000)

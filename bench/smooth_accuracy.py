@@ -1,7 +1,7 @@
-"""Accuracy and speed of ``trebuchet.ingest.smooth.smooth`` on synthetic shots.
+"""Accuracy and speed of ``trebuchet.ingest.smoothing.smooth.smooth`` on synthetic shots.
 
 For frame rates 60–1000 fps and noise 0.1–2°, on the synthetic angles of
-:mod:`trebuchet.ingest.synthetic_shot` (rest, acceleration jump at the trigger and at the
+:mod:`trebuchet.ingest.synthetic.shaped_log` (rest, acceleration jump at the trigger and at the
 release, 3 % dropped frames): RMS errors of angle, rate and acceleration relative to
 their peaks during the shot, the fraction of moving frames whose truth lies within ±2 sd
 (band coverage, ~95 % if the sd are honest), the recovered noise sd, the trigger error
@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.ingest.smooth import ANGLES, smooth
-from trebuchet.ingest.synthetic_shot import synthetic_log
+from trebuchet.ingest.smoothing.smooth import ANGLES, smooth
+from trebuchet.ingest.synthetic.shaped_log import synthetic_log
 
 FRAME_RATES = (60, 120, 240, 1000)
 NOISE_DEG = (0.1, 0.5, 2.0)

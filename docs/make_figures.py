@@ -2,7 +2,7 @@
 
 Run from anywhere: ``.venv/bin/python docs/make_figures.py``. The engine is
 data_samples/horsdal_large.toml (Table 1 of the paper); the figures are those of
-:mod:`trebuchet.model.figures`, predicted curves only.
+:mod:`trebuchet.report.figures`, predicted curves only.
 """
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from trebuchet.model.figures import all_figures
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
 from trebuchet.output import atomic_path
+from trebuchet.report.figures import all_figures
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "data_samples" / "horsdal_large.toml"

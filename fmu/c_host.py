@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .build import fmi_headers
+from trebuchet.fmu.build import fmi_headers
 
 __all__ = ["HOST_SOURCE", "HostRun", "compile_host", "run_host"]
 

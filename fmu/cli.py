@@ -34,7 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _build(args: argparse.Namespace) -> int:
-    from .build import build_fmu
+    from trebuchet.fmu.build import build_fmu
 
     check_target(args.output)
     path = build_fmu(args.output, fmi=args.fmi)
@@ -43,7 +43,7 @@ def _build(args: argparse.Namespace) -> int:
 
 
 def _crosscheck(args: argparse.Namespace) -> int:
-    from .crosscheck import write_crosscheck
+    from trebuchet.fmu.crosscheck import write_crosscheck
 
     check_target(args.output, folder=True)
     folder = write_crosscheck(args.fmu, args.output)

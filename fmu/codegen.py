@@ -31,14 +31,13 @@ from typing import Any
 
 import numpy as np
 
+from trebuchet.fmu.interface import OUTPUT_NAMES
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import flight as flt
 from trebuchet.model import forces as frc
 from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
 from trebuchet.model.scene import default_moment_of_inertia
-
-from .interface import OUTPUT_NAMES
 
 __all__ = ["Formula", "FORMULAS", "PARAMETER_NAMES", "ANGLE_NAMES", "LOAD_OUTPUTS",
            "generate_c", "generate_header", "engine_namespace", "traced", "sympy_math"]

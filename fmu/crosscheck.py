@@ -17,13 +17,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet import __version__
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.fmu.interface import OUTPUT_NAMES, PARAMETERS, scene_from_parameters
+from trebuchet.fmu.model_description import MODEL_NAME
 from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, simulate
 from trebuchet.output import atomic_dir
-
-from .interface import OUTPUT_NAMES, PARAMETERS, scene_from_parameters
-from .model_description import MODEL_NAME
+from trebuchet.version import __version__
 
 __all__ = ["reference", "write_crosscheck", "after_release_for", "START_TIME", "STOP_TIME",
            "STEP_SIZE", "COMMAND_TIME", "REL_TOL"]

@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import codegen
-from .interface import OUTPUT_NAMES, VARIABLES
+from trebuchet.fmu import codegen
+from trebuchet.fmu.interface import OUTPUT_NAMES, VARIABLES
 
 __all__ = ["GLUE_DIR", "GLUE_FILES", "write_sources", "generate_tableau",
            "generate_variables_header", "C_SOURCES"]

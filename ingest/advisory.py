@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene_fit import row_ranges
+from trebuchet.ingest.scene_fit import row_ranges
 
 __all__ = ["Advisory", "resolution_advisories", "ADVISED"]
 

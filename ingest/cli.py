@@ -11,9 +11,8 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.reconstruct import FORMS, TROUGH, reconstruct
 from trebuchet.output import check_target, write_csv
-
-from .reconstruct import FORMS, TROUGH, reconstruct
 
 __all__ = ["register", "forces_summary", "parse_pairs", "add_log_arguments", "log_options"]
 
@@ -42,7 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def add_log_arguments(p: argparse.ArgumentParser) -> None:
-    """The arguments every command that reads a log takes (CONTRACT.md: ``forces``,
+    """The arguments every command that reads a log takes (docs/interface.md: ``forces``,
     ``reconstruct`` and ``compare`` take the same): LOG, --scene, --fps, --column, --point."""
     p.add_argument("log", help="angle log (generic CSV, Tracker, Kinovea or DeepLabCut)")
     p.add_argument("--scene", required=True, help="scene file (TOML) of the engine filmed")

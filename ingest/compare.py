@@ -43,9 +43,10 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError, check_choice
-from trebuchet.model.figures_draw import BAND_SD, shot_events
+from trebuchet.ingest.uncertainty import BAND_SD
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import Trajectory, integrate, simulate
+from trebuchet.model.timeline import shot_events
 
 __all__ = ["Quantity", "QUANTITIES", "METRIC_COLUMNS", "CONTRACT_COLUMNS", "CompareOptions",
            "RELEASE_MODES", "ALIGN_MODES", "release_rule", "fit_lag", "predict", "metrics",
@@ -396,13 +397,15 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     index and ``t_shot``; ``t`` is model time, see :func:`predict`).
     Warnings of ``reconstruct`` and ``simulate`` pass through.
     """
-    from .reconstruct import reconstruct  # filterpy and the smoother load on first use
+    from trebuchet.ingest.reconstruct import (
+        reconstruct,  # filterpy and the smoother load on first use
+    )
 
     scene = as_scene(scene, "compare")
     say = progress or (lambda message: None)
     name = Path(str(log_or_path)).name if not isinstance(log_or_path, pd.DataFrame) else "log"
     if isinstance(log_or_path, str | Path):  # read first: a bad log is refused before progress
-        from .read_log import read_log
+        from trebuchet.ingest.logs.read_log import read_log
 
         keys = ("fps", "columns", "points", "min_likelihood")
         log_or_path = read_log(log_or_path, **{k: reconstruct_options.pop(k) for k in keys

@@ -1,11 +1,11 @@
 """Internal forces from a video log: read, smooth, apply the model's force functions.
 
-``reconstruct(log, scene)`` = :func:`~trebuchet.ingest.read_log.read_log` +
-:func:`~trebuchet.ingest.smooth.smooth` + :func:`trebuchet.model.forces.loads` on the
+``reconstruct(log, scene)`` = :func:`~trebuchet.ingest.logs.read_log.read_log` +
+:func:`~trebuchet.ingest.smoothing.smooth.smooth` + :func:`trebuchet.model.loads.loads` on the
 smoothed state, with
 
 - **events** in the log's time: the trigger and release from the smoother, lift-off where
-  the reconstructed trough normal force reaches zero (:mod:`.lift_off`); each may be
+  the reconstructed trough normal force reaches zero (:mod:`.events.lift_off`); each may be
   given instead (``events={"trigger": s, "lift_off": s, "release": s}``, None = no such
   event);
 - **phases**: 0 at rest before the trigger (an extension of the contract: the static
@@ -40,17 +40,30 @@ import pandas as pd
 from scipy.special import ndtr
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, check_choice
+from trebuchet.ingest.advisory import resolution_advisories
+from trebuchet.ingest.events.lift_off import lift_off_sd, lift_off_time
+from trebuchet.ingest.events.release_model import (
+    ModelRelease,
+    ReleaseFit,
+    release_choice,
+    release_from_model,
+    scene_doubt,
+)
+from trebuchet.ingest.events.sling_continuation import continued_sling
+from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
+from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
+from trebuchet.ingest.smoothing.smooth import (
+    ANGLES,
+    SUFFIXES,
+    SmoothSettings,
+    checked_events,
+    smooth,
+    validated_log,
+)
+from trebuchet.ingest.uncertainty import propagate
 from trebuchet.model import dynamics as dyn
-from trebuchet.model.forces import loads
+from trebuchet.model.loads import loads
 from trebuchet.model.scene import Scene, as_scene
-
-from .advisory import resolution_advisories
-from .lift_off import lift_off_sd, lift_off_time
-from .noise_tuning import NoiseSearch
-from .release_model import ReleaseFit, release_choice, release_from_model, scene_doubt
-from .scene_fit import geometry_findings, warn_findings
-from .smooth import ANGLES, SUFFIXES, SmoothSettings, checked_events, smooth, validated_log
-from .uncertainty import propagate
 
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
            "sling_track_end", "PRESETS", "smoother_settings", "propagation_order",
@@ -85,19 +98,22 @@ class ReconstructOptions:
     ``form``: "projected" or "direct" (see the module doc). ``trough``: "constraint" or
     "measured" φ in phase I. ``event_sd_frames``: sd of a detected release time, in frames,
     and of a detected trigger when the smoother does not give one (it gives the spread of
-    the trigger's likelihood profile, :func:`~trebuchet.ingest.events.trigger_estimate`);
+    the trigger's likelihood profile, :func:`~trebuchet.ingest.events.detection.trigger_estimate`);
     a given event is exact. ``release_at_track_end``: when the sling's track
     ends while the others go on, the release is put between its last frame and the next
     (sd: the gap / √12) and handed to the smoother, instead of the smoother's search for
     a jump in the last frames of the track (which at 60 fps landed about 6 frames early
-    on simulated logs, ``bench/ingest_accuracy.py``). ``resolution_fraction``: the advisory
-    speaks where a load's sd exceeds this fraction of its peak. ``model``: the smoother's
-    model ("ca", "cj", or per angle the likelier of both, "select", or their mixture,
-    "average": :mod:`~trebuchet.ingest.model_choice`); ``smooth``: its settings
-    (default: the preset's). Measured on ``bench/ingest_accuracy.py`` (six seeds,
+    on simulated logs, ``bench/ingest_accuracy.py``); with ``release_model`` set, a
+    track's end is the release only if the engine agrees (:func:`_lost_or_released`: a
+    track lost before the release is carried on by the sling's pendulum).
+    ``resolution_fraction``: the advisory speaks where a load's sd exceeds this fraction of
+    its peak. ``model``: the smoother's model ("ca", "cj", or per angle the likelier of
+    both, "select", or their mixture, "average":
+    :mod:`~trebuchet.ingest.smoothing.model_choice`); ``smooth``: its settings (default: the
+    preset's). Measured on ``bench/ingest_accuracy.py`` (six seeds,
     projected form; inside / too narrow / too wide of 85–99 %, mean |F_R| RMS error):
     the default 157 / 0 / 3, 1.62 % (seeds 6–11: 158 / 0 / 2, 12–17: 160 / 0 / 0;
-    :class:`~trebuchet.ingest.smooth.SmoothSettings` gives the steps to it: bands of
+    :class:`~trebuchet.ingest.smoothing.smooth.SmoothSettings` gives the steps to it: bands of
     the measurement noise's error plus the process noise's share as far as the data
     show it, and two terms of the bias; before them 151 / 1 / 8, 150 / 0 / 10 and
     154 / 0 / 6); with the default smoother settings before that (local noise
@@ -139,14 +155,14 @@ class ReconstructOptions:
 
     ``release_model``: when the release is neither given nor the end of the sling's
     track (the track goes on past it: an empty sling swinging, a tracker following the
-    stone), it is checked against the engine's equations (:mod:`.release_model`: the
+    stone), it is checked against the engine's equations (:mod:`.events.release_model`: the
     measured θ̈, ψ̈ follow phase II before it and phase III after it); where the two
     disagree, or the smoother found no release, the model's release is handed to the
     smoother (a second smoothing) with its sd. None: no check. The first smoothing then
     runs with :func:`checking_settings` and the second, with the full settings and a
     release given (the model's, or where it is not used the smoother's own), takes its
     trigger and noise search (``smooth(tuned=…)``; 2 s at 1000 fps: about 0.47 s against
-    0.7 s for two full smoothings; accuracy on the 192 logs of :mod:`.release_model`:
+    0.7 s for two full smoothings; accuracy on the 192 logs of :mod:`.events.release_model`:
     release error median 0.24, 90 % 1.5 frames, 97 % within 2 sd, peak |F_S| 3.5 % /
     9.8 %). Angles near the release that fit the scene's equations worse than their
     noise allows warn (:func:`~.release_model.scene_doubt`: a scene a little off).
@@ -319,7 +335,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                         events: Mapping[str, float | None] | None = None,
                         options: ReconstructOptions | None = None,
                         release_sd: float | None = None) -> pd.DataFrame:
-    """Every load and its sd from the output of :func:`~trebuchet.ingest.smooth.smooth`.
+    """Every load and its sd from the output of :func:`~trebuchet.ingest.smoothing.smooth.smooth`.
 
     ``events``: given event times (s, log time; None = no such event) overriding those in
     ``est.attrs["events"]`` and the lift-off detection; ``release_sd`` (s): sd of the
@@ -439,7 +455,7 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
                               ) -> tuple[pd.DataFrame, float | None]:
     """The smoothed log and the release's sd (s; None = the default) after checking the
     release of ``est`` (smoothed with :func:`checking_settings`) against the engine's
-    equations (:mod:`.release_model`); where the model's release is used the log is
+    equations (:mod:`.events.release_model`); where the model's release is used the log is
     smoothed again with it given (the noise search's result of ``est`` standing in for
     a new one: same log, only the release moves), its source says so and a note tells
     both times; else it is smoothed again with the smoother's own release given.
@@ -448,16 +464,8 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     model's release is still used). ``angles_log`` (3, n): the log's θ, ψ, φ (rad) as
     :func:`~.smooth.validated_log` gave them."""
     settings = options.release_model
-    noise = est.attrs["noise"]  # theta and psi are tracked (reconstruct checks)
-    angles = {}
-    for a in ("theta", "psi"):
-        z = angles_log[ANGLES.index(a)].copy()
-        ok = np.isfinite(z)
-        z[ok] = np.unwrap(z[ok])  # as the smoother does
-        angles[a] = z
     found = est.attrs["events"]
-    fitted = release_from_model(angles, est, scene, found.get("trigger"),
-                                {a: noise[a]["r_sd"] for a in ("theta", "psi")}, settings)
+    fitted = _model_release(angles_log, est, scene, settings)
     t = est["t"].to_numpy(dtype=float)
     sd_free = options.event_sd_frames * float(np.median(np.diff(t)))
     use, sentence = release_choice(fitted, found.get("release"), settings)
@@ -484,6 +492,92 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     est.attrs["notes"] = [*notes, *(n for n in est.attrs.get("notes", []) if n not in notes),
                           sentence, *([doubt] if doubt is not None else [])]
     return est, fitted.sd
+
+
+#: A sling track that ends is a lost track, not the release, where the engine's equations
+#: put the release this many of their sd after the first frame the track misses (at 1 sd,
+#: 3 of 4 simulated logs at 60–120 fps and 1–2° whose track ends at the release were
+#: taken for lost ones: the sd is the model's, the track end's own is a frame).
+LOST_TRACK_SD = 3.0
+
+
+def _model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
+                   settings: ReleaseFit) -> ModelRelease:
+    """:func:`.events.release_model.release_from_model` on the log's raw θ and ψ (rad,
+    unwrapped as the smoother does; ``angles_log`` (3, n) as ``validated_log`` gave them)
+    and the smoothed ``est``, with the smoother's noise sd and trigger."""
+    noise = est.attrs["noise"]  # theta and psi are tracked (reconstruct checks)
+    angles = {}
+    for a in ("theta", "psi"):
+        z = angles_log[ANGLES.index(a)].copy()
+        ok = np.isfinite(z)
+        z[ok] = np.unwrap(z[ok])  # as the smoother does
+        angles[a] = z
+    return release_from_model(angles, est, scene, est.attrs["events"].get("trigger"),
+                              {a: noise[a]["r_sd"] for a in ("theta", "psi")}, settings)
+
+
+def _with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
+                          until: float | None = None) -> pd.DataFrame:
+    """``est`` with φ, φ̇, φ̈ and their sd (and ``attrs["cov"]["phi"]``) filled on the rows
+    after the sling track's last row ``last`` (up to the time ``until``, s; all rows if
+    None) by the sling's pendulum driven by the smoothed beam
+    (:mod:`.events.sling_continuation`)."""
+    cov = dict(est.attrs["cov"])
+    cont = continued_sling({c: est[c].to_numpy(dtype=float) for c in
+                            ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")},
+                           scene, last, cov["phi"][last][:3, :3])
+    keep = np.ones(cont.rows.size, bool) if until is None else (
+        est["t"].to_numpy(dtype=float)[cont.rows] <= until)
+    rows = cont.rows[keep]
+    out = est.copy()
+    out.attrs = dict(est.attrs)
+    phi_cov = np.array(cov["phi"], dtype=float, copy=True)
+    phi_cov[rows] = 0.0
+    phi_cov[rows, :3, :3] = cont.cov[keep]
+    cov["phi"] = phi_cov
+    out.attrs["cov"] = cov
+    for j, (suffix, values) in enumerate((("", cont.phi), ("_d", cont.phi_d),
+                                          ("_dd", cont.phi_dd))):
+        out.loc[out.index[rows], "phi" + suffix] = values[keep]
+        out.loc[out.index[rows], "phi" + suffix + "_sd"] = np.sqrt(cont.cov[keep, j, j])
+    return out
+
+
+def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFrame,
+                      scene: Scene, options: ReconstructOptions,
+                      smooth_events: dict[str, float | None],
+                      q: float | Mapping[str, float] | None,
+                      r: float | Mapping[str, float] | None,
+                      track_end: tuple[float, float]) -> tuple[pd.DataFrame, float]:
+    """The smoothed log and the release's sd (s) where the sling's track ends while θ and ψ
+    go on: a release only if the engine agrees. φ is carried on past the track by the
+    sling's pendulum, and the release is sought in θ and ψ with the engine's equations
+    (:func:`_model_release`). Where they put it, by :data:`LOST_TRACK_SD` of its sd, after
+    the first frame the track misses, the track was lost, not released: the log is
+    smoothed again with the equations' release, φ carried on up to it (phase II keeps its
+    sling loads), and a note says so; else the track's end stands (``est`` as it is)."""
+    settings = options.release_model
+    phi = est["phi"].to_numpy(dtype=float)
+    last = int(np.flatnonzero(np.isfinite(phi))[-1])
+    fitted = _model_release(angles_log, _with_continued_sling(est, scene, last), scene,
+                            settings)
+    t = est["t"].to_numpy(dtype=float)
+    if (fitted.time is None or not fitted.misfit <= settings.max_misfit
+            or fitted.time - LOST_TRACK_SD * fitted.sd <= t[last + 1]):
+        return est, track_end[1]
+    t_last = float(t[last])
+    again = _smooth_again(log, est, options, smooth_events, q, r, fitted.time)
+    again = _with_continued_sling(again, scene, last, until=fitted.time)
+    again.attrs["event_sources"]["release"] = (
+        f"the engine's equations (the sling's track was lost at {t_last:.4f} s)")
+    gap = fitted.time - track_end[0]
+    again.attrs["notes"] = [*again.attrs.get("notes", []), (
+        f"the sling's track ends at {t_last:.4f} s, but θ and ψ follow the engine in the sling "
+        f"until {fitted.time:.4f} s (sd {1e3 * fitted.sd:.1f} ms, {1e3 * gap:.0f} ms later): "
+        "the track was lost, not released; φ is carried on by the sling's pendulum up to the "
+        "release")]
+    return again, fitted.sd
 
 
 def _smooth_again(log: pd.DataFrame, est: pd.DataFrame, options: ReconstructOptions,
@@ -520,7 +614,7 @@ def _log_frame(path_or_log, fps, columns, points, min_likelihood) -> pd.DataFram
             log.insert(0, "t", log["frame"].to_numpy(dtype=float) / float(fps))
         return log
     if isinstance(path_or_log, str | Path):
-        from .read_log import read_log
+        from trebuchet.ingest.logs.read_log import read_log
 
         return read_log(path_or_log, fps=fps, columns=columns, points=points,
                         min_likelihood=min_likelihood)
@@ -541,7 +635,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
 
     Parameters
     ----------
-    path_or_log : a log file (any format :func:`~trebuchet.ingest.read_log.read_log`
+    path_or_log : a log file (any format :func:`~trebuchet.ingest.logs.read_log.read_log`
         reads) or a DataFrame with ``t`` (s) and ``theta``, ``psi``, ``phi`` (rad).
     scene : the engine filmed (a :class:`~trebuchet.model.scene.Scene` or a scene file).
     fps, columns, points, min_likelihood : as for ``read_log``.
@@ -559,7 +653,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     -------
     DataFrame with the log's rows: ``t`` (s, the log's time), ``t_shot`` (s after the
     detected trigger), ``phase`` (0 at rest, 1 trough, 2 sling, 3 released), the angles,
-    rates and accelerations, every column of :func:`trebuchet.model.forces.loads`, and
+    rates and accelerations, every column of :func:`trebuchet.model.loads.loads`, and
     ``X_sd`` for each of them. ``attrs``: ``events`` (trigger, lift_off, release; log
     time, s, or None), ``event_sd`` (s), ``event_sources``, ``noise`` (per angle: ``q``,
     ``r_sd`` rad, …), ``form``, ``trough``, ``fps``, ``advisories`` (list of dicts:
@@ -601,6 +695,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
              and options.release_model is not None)
     untracked = [a for a, z in zip(ANGLES, angles_log, strict=True)
                  if a != "phi" and not np.isfinite(z).any()]
+    confirm = (track_end is not None and options.release_model is not None and not untracked
+               and "release" not in given)
     unchecked = check and bool(untracked)
     check = check and not untracked
     settings = smoother_settings(options)
@@ -609,10 +705,15 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     release_sd = None
     if track_end is not None:
         leaves = log.attrs.get("leaves_sling")
+        seen_leaving = leaves is not None and leaves["t"] == track_end[0]
         est.attrs["event_sources"]["release"] = (
-            "the tracked stone leaves its sling's circle"
-            if leaves is not None and leaves["t"] == track_end[0] else "end of the sling track")
+            "the tracked stone leaves its sling's circle" if seen_leaving
+            else "end of the sling track")
         release_sd = track_end[1]
+        if confirm and not seen_leaving:  # a stone seen in flight was released; a track
+            # that just ends may have been lost
+            est, release_sd = _lost_or_released(log, angles_log, est, scene, options,
+                                                smooth_events, q, r, track_end)
     elif check:
         est, release_sd = _release_by_the_equations(log, angles_log, est, scene, options,
                                                     smooth_events, q, r)

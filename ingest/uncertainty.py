@@ -26,9 +26,12 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-__all__ = ["Propagation", "propagate", "STATE_SUFFIXES"]
+__all__ = ["Propagation", "propagate", "STATE_SUFFIXES", "BAND_SD"]
 
 STATE_SUFFIXES = ("", "_d", "_dd")
+
+#: A measured quantity's band is its mean ± BAND_SD standard deviations (figures, comparison).
+BAND_SD = 2.0
 
 
 @dataclass(frozen=True)

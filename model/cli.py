@@ -5,11 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+from trebuchet.model.paper import horsdal_scene_path, paper_comparison
+from trebuchet.model.scene import Scene
+from trebuchet.model.simulate import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
 from trebuchet.output import check_target, write_csv
-
-from .paper import horsdal_scene_path, paper_comparison
-from .scene import Scene
-from .simulate import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
 
 
 def register(sub: argparse._SubParsersAction) -> None:

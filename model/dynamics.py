@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .scene import Engine
+from trebuchet.model.scene import Engine
 
 __all__ = [
     "trough_sling_angle",
@@ -38,9 +38,11 @@ __all__ = [
     "accelerations_phase1",
     "accelerations_phase2",
     "accelerations_phase3",
+    "sling_pendulum_phi_dd",
     "state_rates_phase1",
     "state_rates_phase2",
     "state_rates_phase3",
+    "phase_state",
 ]
 
 
@@ -138,8 +140,17 @@ def accelerations_phase2(theta: Any, psi: Any, phi: Any, theta_d: Any, psi_d: An
                          + c * (e.L1 * w2 * s - g * cos_ph))
     theta_dd, psi_dd = beam_and_counterweight(theta, psi, theta_d, psi_d, q_p,
                                               e.m * e.L1 * e.L1 * s * s, e, g, lib)
-    phi_dd = (e.L1 * (s * w2 - c * theta_dd) - g * cos_ph) / e.L4
+    phi_dd = sling_pendulum_phi_dd(theta, theta_d, theta_dd, phi, e, g, lib)
     return theta_dd, psi_dd, phi_dd
+
+
+def sling_pendulum_phi_dd(theta: Any, theta_d: Any, theta_dd: Any, phi: Any, e: Engine,
+                          g: float, lib: ModuleType = np) -> Any:
+    """Phase II: the sling as a pendulum of length L4 hung from the moving spigot,
+    ``φ̈ = (L1 (sin(θ−φ) θ̇² − cos(θ−φ) θ̈) − g cos φ)/L4`` (rad/s²; the paper's sling
+    equation), for any motion of the beam."""
+    s, c = lib.sin(theta - phi), lib.cos(theta - phi)
+    return (e.L1 * (s * (theta_d * theta_d) - c * theta_dd) - g * lib.cos(phi)) / e.L4
 
 
 def accelerations_phase3(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
@@ -168,3 +179,22 @@ def state_rates_phase3(y: Any, e: Engine, g: float,
     """Time derivative of the phase-III state ``y = (θ, ψ, θ̇, ψ̇)``: ``(θ̇, ψ̇, θ̈, ψ̈)``."""
     th_dd, ps_dd = accelerations_phase3(y[0], y[1], y[2], y[3], e, g, lib)
     return y[2], y[3], th_dd, ps_dd
+
+
+def phase_state(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleType = np
+                ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any]:
+    """θ, ψ, φ (rad), θ̇, ψ̇, φ̇ (rad/s), θ̈, ψ̈, φ̈ (rad/s²) from the state ``y`` of phase
+    ``kind`` (I: ``(θ, ψ, θ̇, ψ̇)`` with φ from the trough; II: ``(θ, ψ, φ, θ̇, ψ̇, φ̇)``;
+    III: ``(θ, ψ, θ̇, ψ̇)``, φ and its derivatives NaN): the one dispatch from a phase to its
+    accelerations, for floats (compiled) and arrays alike."""
+    if kind == 1:
+        th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
+        ph, ph_d, th_dd, ps_dd, ph_dd = accelerations_phase1(th, ps, th_d, ps_d, e, g, H, lib)
+    elif kind == 2:
+        th, ps, ph, th_d, ps_d, ph_d = y[0], y[1], y[2], y[3], y[4], y[5]
+        th_dd, ps_dd, ph_dd = accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, lib)
+    else:
+        th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
+        th_dd, ps_dd = accelerations_phase3(th, ps, th_d, ps_d, e, g, lib)
+        ph = ph_d = ph_dd = th * lib.nan
+    return th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .scene import Flight
+from trebuchet.model.scene import Flight
 
 __all__ = ["vacuum_flight", "drag_flight", "flight_summary", "projectile_in_flight",
            "drag_constant"]

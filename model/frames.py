@@ -1,7 +1,7 @@
 """Fast assembly of wide DataFrames from columns of equal length.
 
 ``pd.DataFrame(dict_of_arrays)`` sanitises every column on its own (~10–30 µs each) before
-stacking them into blocks; for the ~60 columns of :func:`trebuchet.model.forces.loads` that
+stacking them into blocks; for the ~60 columns of :func:`trebuchet.model.loads.loads` that
 is most of two milliseconds. :func:`frame` stacks the float64 columns into one block itself
 and hands the blocks to pandas' low-level constructor
 (``pandas.api.internals.create_dataframe_from_blocks``, pandas >= 3.0): the same frame

@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from .scene import Scene
+from trebuchet.model.scene import Scene
 
 __all__ = [
     "StaticForces",
@@ -96,7 +96,7 @@ def initial_accelerations(scene: Scene) -> tuple[float, float, float]:
     hanging counterweight (ψ_i = −π/2) and a flat sling (φ_i = −π); for other start poses the
     general equations of motion are used.
     """
-    from .dynamics import accelerations_phase1
+    from trebuchet.model.dynamics import accelerations_phase1
 
     e, g, s = scene.engine, scene.g, scene.start
     if math.isclose(s.psi, -math.pi / 2, abs_tol=1e-12) and math.isclose(

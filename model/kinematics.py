@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .scene import Engine
+from trebuchet.model.scene import Engine
 
 __all__ = [
     "Angle",

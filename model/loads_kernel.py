@@ -20,11 +20,11 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from . import dynamics as dyn
-from . import forces as fo
-from . import kinematics as kin
-from .scene import Scene
-from .shot_kernel import discard_stale_cache, jit_engine
+from trebuchet.model import dynamics as dyn
+from trebuchet.model import forces as fo
+from trebuchet.model import kinematics as kin
+from trebuchet.model.scene import Scene
+from trebuchet.model.shot_kernel import discard_stale_cache, jit_engine
 
 __all__ = ["load_block"]
 

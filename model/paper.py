@@ -20,10 +20,9 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError
-
-from .initial import initial_state, static_forces
-from .scene import Scene
-from .simulate import simulate
+from trebuchet.model.initial import initial_state, static_forces
+from trebuchet.model.scene import Scene
+from trebuchet.model.simulate import simulate
 
 __all__ = ["PaperValue", "paper_values", "paper_comparison", "horsdal_scene_path"]
 
@@ -134,8 +133,8 @@ def paper_values() -> list[PaperValue]:
         lambda c: 100 * (1 - c.initial.N / c.initial.N_counterweight))
     # Section 11: time dependencies.
     add("Sect. 11.1", "lift-off", 343, "ms", 0.5, lambda c: c.events["lift_off"] * ms,
-        "the model lifts off 4.8 ms later; an independent implementation (NOTES) agrees with "
-        "the model, so this is the paper's reading")
+        "the model lifts off 4.8 ms later; an independent implementation (docs/background.md) "
+        "agrees with the model, so this is the paper's reading")
     add("Sect. 11.1", "sling tension at release", 52, "mg", 0.5,
         lambda c: c.release("F_S_abs") / c.mg,
         "at 997 ms; the paper's 52 mg is the model's value at 993 ms (52.3 mg): the paper's "

@@ -13,8 +13,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from . import dynamics as dyn
-from .scene import Engine
+from trebuchet.model import dynamics as dyn
+from trebuchet.model.kinematics import projectile_position_xy, projectile_velocity_xy
+from trebuchet.model.scene import Engine
 
 __all__ = [
     "LIFT_OFF", "SLING_UPRIGHT", "GROUND", "RELEASE_TIME", "RELEASE_ANGLE", "DIRECTION",
@@ -49,7 +50,9 @@ def projectile_height(y: Any, e: Engine, H: float) -> float:
     """Phase II: height of the projectile in the sling, m, plus a hair (1e-9 of L1 + L4) so
     that lift-off from the trough at height 0 is not taken for a strike; falling through 0
     it strikes the ground."""
-    return H + e.L1 * math.sin(y[0]) + e.L4 * math.sin(y[2]) + 1e-9 * (e.L1 + e.L4)
+    height = projectile_position_xy(math.cos(y[0]), math.sin(y[0]), math.cos(y[2]),
+                                    math.sin(y[2]), e, H)[1]
+    return height + 1e-9 * (e.L1 + e.L4)
 
 
 def time_to_release(t: float, t_release: float) -> float:
@@ -61,8 +64,8 @@ def climb_margin(y: Any, e: Engine, angle: float) -> float:
     """Phase II: ``|v| sin(α − β)``, m/s, where β is the projectile's climb toward −x and α
     the release angle (rad); release where it rises through 0 (β = α)."""
     th, ph, th_d, ph_d = y[0], y[2], y[3], y[5]
-    vx = -e.L1 * th_d * math.sin(th) - e.L4 * ph_d * math.sin(ph)
-    vy = e.L1 * th_d * math.cos(th) + e.L4 * ph_d * math.cos(ph)
+    vx, vy = projectile_velocity_xy(math.cos(th), math.sin(th), th_d, math.cos(ph),
+                                    math.sin(ph), ph_d, e)
     return math.sin(angle) * (-vx) - math.cos(angle) * vy
 
 

@@ -1,6 +1,6 @@
 """Scenes: which engine is fired, from which pose, and when the projectile is released.
 
-A scene is the TOML file of CONTRACT.md loaded into frozen dataclasses. Every
+A scene is the TOML file of docs/interface.md loaded into frozen dataclasses. Every
 value is validated on load; a bad value raises :class:`TrebuchetInputError`
 whose message names the file and the key (``horsdal_large.toml: [engine] L3 =
 -2.45: ...``). Lengths in m, masses in kg, angles in rad inside the code
@@ -148,7 +148,7 @@ class Scene:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Scene:
-        """Load and validate a scene file (CONTRACT.md, "Scene file")."""
+        """Load and validate a scene file (docs/interface.md, "Scene file")."""
         path = Path(path)
         try:
             text = path.read_text(encoding="utf-8")

@@ -34,10 +34,11 @@ import numpy as np
 from numba.extending import register_jitable
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from . import dynamics as dyn
-from . import phase_events as pev
-from .integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
-from .scene import Engine
+from trebuchet.model import dynamics as dyn
+from trebuchet.model import kinematics as kin
+from trebuchet.model import phase_events as pev
+from trebuchet.model.integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
+from trebuchet.model.scene import Engine
 
 __all__ = ["JitEngine", "jit_engine", "solve_phase", "KernelSolution", "STATE_SIZE",
            "discard_stale_cache"]
@@ -46,6 +47,8 @@ for _name in (*dyn.__all__, *(n for n in pev.__all__ if n[0].islower())):
     register_jitable(getattr(dyn, _name, None) or getattr(pev, _name))
 for _f in (_crossed, next_step_size):  # shared with the pure-Python integrator
     register_jitable(_f)
+for _name in ("projectile_position_xy", "projectile_velocity_xy"):  # the events' kinematics
+    register_jitable(getattr(kin, _name))
 
 #: The engine as numba sees it: Engine's fields, ``counterweight_offset`` NaN when hinged.
 JitEngine = namedtuple("JitEngine", "L1 L2 L_CM L3 L4 m_b M m I counterweight_offset "
@@ -388,18 +391,8 @@ def _columns(kind, e, g, H, ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
     y = np.empty(Y.shape[1])
     for m in range(t.shape[0]):
         _state_at(ts, Y, Hs, Fs, t[m], y)
-        if kind == 1:
-            ph, ph_d, th_dd, ps_dd, ph_dd = dyn.accelerations_phase1(y[0], y[1], y[2], y[3], e,
-                                                                     g, H, math)
-            th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
-        elif kind == 2:
-            th, ps, ph, th_d, ps_d, ph_d = y[0], y[1], y[2], y[3], y[4], y[5]
-            th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g,
-                                                           math)
-        else:
-            th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
-            th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g, math)
-            ph = ph_d = ph_dd = math.nan
+        th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = dyn.phase_state(kind, y, e, g, H,
+                                                                             math)
         out[0, m], out[1, m], out[2, m] = th, ps, ph
         out[3, m], out[4, m], out[5, m] = th_d, ps_d, ph_d
         out[6, m], out[7, m], out[8, m] = th_dd, ps_dd, ph_dd
@@ -416,8 +409,8 @@ def _states(ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
 
 _COMPILED = (_rate, _event, _grown, _stage, _step, _dense, _interp, _interp_point, _event_at,
              _brent, _locate, _initial_step, _integrate, _state_at, _columns, _states)
-_SOURCES = (Path(dyn.__file__), Path(pev.__file__), Path(_crossed.__code__.co_filename),
-            Path(__file__))
+_SOURCES = (Path(dyn.__file__), Path(pev.__file__), Path(kin.__file__),
+            Path(_crossed.__code__.co_filename), Path(__file__))
 
 
 def discard_stale_cache(compiled: tuple, sources: tuple[Path, ...], name: str) -> bool:
@@ -458,20 +451,6 @@ def _say_compiling() -> None:
         _cold = False
         print("trebuchet: compiling the simulator (once per installation, about 15 s)...",
               file=sys.stderr, flush=True)
-
-
-def warm_up() -> None:
-    """Compile (or load from the cache) everything a simulation runs: a shot of the paper's
-    engine with its outputs. ``make install`` calls it, so that the first simulation of a
-    user does not wait for the compiler."""
-    from .paper import horsdal_scene_path
-    from .scene import Scene
-    from .simulate import integrate, simulate
-
-    scene = Scene.from_toml(horsdal_scene_path())
-    simulate(scene)
-    for p in integrate(scene).phases:
-        p.sol(np.array([p.t0, p.t1]))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -4,7 +4,7 @@
 of :mod:`trebuchet.model.dynamics` phase by phase, locates lift-off (the
 trough's normal force reaches zero) and release (a time, or the projectile's
 velocity climbing at a given angle) as events to solver accuracy, and
-computes every load with :func:`trebuchet.model.forces.loads` on the
+computes every load with :func:`trebuchet.model.loads.loads` on the
 requested output times. The result is a DataFrame whose ``attrs`` carry the
 events, the flight in vacuum and the solver's diagnostics.
 """
@@ -22,13 +22,13 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
-
-from . import dynamics as dyn
-from . import phase_events as pev
-from .flight import flight_summary
-from .forces import load_columns
-from .frames import frame
-from .scene import Scene
+from trebuchet.model import dynamics as dyn
+from trebuchet.model import kinematics as kin
+from trebuchet.model import phase_events as pev
+from trebuchet.model.flight import flight_summary
+from trebuchet.model.frames import frame
+from trebuchet.model.loads import load_columns
+from trebuchet.model.scene import Scene
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
@@ -110,18 +110,7 @@ class Trajectory:
             p.sol.columns(t, out)
             return out
         e, g, H = self.scene.engine, self.scene.g, self.scene.start.H
-        y = p.sol(t)
-        if p.phase == 1:
-            th, ps, th_d, ps_d = y
-            ph, ph_d, th_dd, ps_dd, ph_dd = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H)
-        elif p.phase == 2:
-            th, ps, ph, th_d, ps_d, ph_d = y
-            th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g)
-        else:
-            th, ps, th_d, ps_d = y
-            th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
-            ph = ph_d = ph_dd = np.full_like(th, np.nan)
-        return np.array([th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd])
+        return np.array(dyn.phase_state(p.phase, p.sol(t), e, g, H))
 
 
 def _rhs(scene: Scene, kind: int, lib: ModuleType = math) -> Callable:
@@ -179,13 +168,13 @@ def _solve(scene: Scene, kind: int, t0: float, t1: float, y0: Sequence[float],
     if first_step is not None:
         first_step = min(first_step, t1 - t0)
     if method == "DOP853":
-        from .shot_kernel import solve_phase
+        from trebuchet.model.shot_kernel import solve_phase
 
         return solve_phase(kind, scene.engine, scene.g, scene.start.H, t0, t1,
                            np.asarray(y0, dtype=float), rtol, first_step, tuple(events))
     ev = [_event(scene, k, par) for k, par in events]
     if method == "python-DOP853":
-        from .integrator import solve
+        from trebuchet.model.integrator import solve
 
         return solve(_rhs(scene, kind), (t0, t1), y0, rtol=rtol, atol=rtol * 1e-2,
                      dense_output=True, events=ev, first_step=first_step,
@@ -238,13 +227,10 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
         t0, beam, sling = _phase_sling(scene, t0, beam, sling, rtol, method, phases, events)
         th, ps, th_d, ps_d = beam
         ph, ph_d = sling
-        release_state = {
-            "t": t0,
-            "x": e.L1 * math.cos(th) + e.L4 * math.cos(ph),
-            "y": H + e.L1 * math.sin(th) + e.L4 * math.sin(ph),
-            "vx": -e.L1 * th_d * math.sin(th) - e.L4 * ph_d * math.sin(ph),
-            "vy": e.L1 * th_d * math.cos(th) + e.L4 * ph_d * math.cos(ph),
-        }
+        c_th, s_th, c_ph, s_ph = math.cos(th), math.sin(th), math.cos(ph), math.sin(ph)
+        x, y = kin.projectile_position_xy(c_th, s_th, c_ph, s_ph, e, H)
+        vx, vy = kin.projectile_velocity_xy(c_th, s_th, th_d, c_ph, s_ph, ph_d, e)
+        release_state = {"t": t0, "x": x, "y": y, "vx": vx, "vy": vy}
     # Phase III: beam and counterweight swing on; the projectile flies (or there is none).
     t_end = t0 + after_release
     if after_release > 0.0 or not phases:
@@ -359,7 +345,9 @@ def engine_energy(run: Mapping[str, Any], traj: Trajectory) -> np.ndarray:
         rs, e, s = traj.release_state, traj.scene.engine, traj.scene
         y_rest = 0.0
         if s.projectile == "sling":
-            y_rest = s.start.H + e.L1 * math.sin(s.start.theta) + e.L4 * math.sin(s.start.phi)
+            y_rest = kin.projectile_position_xy(
+                math.cos(s.start.theta), math.sin(s.start.theta), math.cos(s.start.phi),
+                math.sin(s.start.phi), e, s.start.H)[1]
         at_release = 0.5 * e.m * (rs["vx"] ** 2 + rs["vy"] ** 2) + e.m * s.g * (rs["y"] - y_rest)
         E_m = np.where(np.asarray(run["phase"]) == 3, at_release, E_m)
     return E_m + np.asarray(run["E_M"]) + np.asarray(run["E_beam"])
@@ -394,8 +382,8 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
 
     Returns
     -------
-    DataFrame with the columns of CONTRACT.md (and the extras of
-    :func:`trebuchet.model.forces.loads`). ``attrs["events"]`` holds ``lift_off``,
+    DataFrame with the columns of docs/interface.md (and the extras of
+    :func:`trebuchet.model.loads.loads`). ``attrs["events"]`` holds ``lift_off``,
     ``release`` and ``end`` (s; lift-off and release only where the scene has them);
     ``attrs["flight"]`` the flight (vacuum or drag, None for a dry fire);
     ``attrs["diagnostics"]`` the solver, tolerance, number of evaluations and energy drift.

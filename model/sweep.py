@@ -46,10 +46,9 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from trebuchet.errors import TrebuchetInputError
-
-from .dynamics import trough_sling_angle
-from .scene import SCENE_KEYS, Scene, default_moment_of_inertia
-from .simulate import resolve_rtol, simulate
+from trebuchet.model.dynamics import trough_sling_angle
+from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
+from trebuchet.model.simulate import resolve_rtol, simulate
 
 __all__ = [
     "SUMMARY_COLUMNS",

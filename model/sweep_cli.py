@@ -14,11 +14,10 @@ import argparse
 import time
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.model.scene import Scene
+from trebuchet.model.simulate import ACCURACY
+from trebuchet.model.sweep import STATUS_OK, SimulationOptions, parse_grid_option, sweep
 from trebuchet.output import check_target, write_csv
-
-from .scene import Scene
-from .simulate import ACCURACY
-from .sweep import STATUS_OK, SimulationOptions, parse_grid_option, sweep
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -12,14 +13,8 @@ from trebuchet.model.scene import Scene
 ROOT = Path(__file__).resolve().parents[1]
 HORSDAL = ROOT / "data_samples" / "horsdal_large.toml"
 
-BACKYARD = {
-    "engine": {"L1": 2.0, "L2": 0.5, "L_CM": 0.6, "L3": 0.6, "L4": 1.8, "m_b": 15.0,
-               "M": 100.0, "m": 1.0},
-    "start": {"theta_deg": -45.0, "psi_deg": -90.0,
-              "phi_deg": -180.0},
-    "release": {"velocity_angle_deg": 45.0},
-    "environment": {"g": 9.81},
-}
+#: The backyard engine of data_samples/backyard.toml (written by data_samples/make_samples.py).
+BACKYARD = tomllib.loads((ROOT / "data_samples" / "backyard.toml").read_text(encoding="utf-8"))
 
 
 @pytest.fixture(scope="session")

@@ -83,8 +83,7 @@ def test_a_report_never_replaces_a_file_or_someone_elses_folder(tmp_path, capsys
 
 
 def test_a_report_folder_replaces_the_previous_report(tmp_path, capsys, monkeypatch):
-    from trebuchet.ingest import report as report_mod
-
+    from trebuchet.report import page as report_mod
     monkeypatch.setattr(report_mod, "FIGURE_DPI", 30)
     out = tmp_path / "rep"
     for _ in range(2):

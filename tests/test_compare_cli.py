@@ -12,14 +12,14 @@ matplotlib.use("Agg")
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
-import trebuchet.model.figures as figures_module
+import trebuchet.report.figures as figures_module
 from tests.conftest import HORSDAL, ROOT  # noqa: E402
 from trebuchet import cli  # noqa: E402
 from trebuchet.errors import TrebuchetInputError  # noqa: E402
-from trebuchet.ingest import compare_cli
 from trebuchet.ingest.cli import log_options  # noqa: E402
 from trebuchet.ingest.compare import CONTRACT_COLUMNS, QUANTITIES  # noqa: E402
-from trebuchet.model.figures import FIGURES  # noqa: E402
+from trebuchet.report import compare_cli
+from trebuchet.report.figures import FIGURES  # noqa: E402
 
 DEMO_LOG = ROOT / "data_samples" / "horsdal_240fps.csv"
 # the sample's gaps and resolution advisory: they go to the report, checked there
@@ -113,7 +113,8 @@ def test_bad_scene_and_missing_log_exit_2_naming_the_file(run, tmp_path, capsys)
 
 
 def test_log_options_are_those_of_forces():
-    """compare takes the same log arguments as forces (CONTRACT.md), parsed by the same code."""
+    """compare takes the same log arguments as forces (docs/interface.md), parsed by the same
+    code."""
     parser = argparse.ArgumentParser()
     sub = parser.add_subparsers()
     compare_cli.register(sub)

@@ -136,7 +136,7 @@ def test_forces_on_bad_angles_name_the_problem(horsdal):
     import pandas as pd
 
     from trebuchet.errors import TrebuchetInputError
-    from trebuchet.model.forces import loads
+    from trebuchet.model.loads import loads
 
     run = simulate(horsdal, t_eval=[0.0, 0.5])
     angles = run[["t", "phase", "theta", "psi", "phi", "theta_d", "psi_d", "phi_d",

@@ -15,15 +15,15 @@ import pytest  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from trebuchet.model.figures import FIGURES, all_figures, fig_bending, fig_tension  # noqa: E402
-from trebuchet.model.figures_draw import shot_events, shot_time, shot_window  # noqa: E402
-from trebuchet.model.figures_engine import engine_points, greatest_bending_time  # noqa: E402
-from trebuchet.model.figures_numbers import (  # noqa: E402
+from trebuchet.model.simulate import simulate  # noqa: E402
+from trebuchet.model.timeline import shot_events, shot_time, shot_window  # noqa: E402
+from trebuchet.report.figures import FIGURES, all_figures, fig_bending, fig_tension  # noqa: E402
+from trebuchet.report.figures_engine import engine_points, greatest_bending_time  # noqa: E402
+from trebuchet.report.figures_numbers import (  # noqa: E402
     event_table,
     flight_table,
     peak_table,
 )
-from trebuchet.model.simulate import simulate  # noqa: E402
 
 TRIGGER = 0.5  # s: the fake log's trigger, in the log's own time
 UNIT = re.compile(r"\([^()]*(?<![A-Za-z_])(?:ms|m|m g|M g|kN m|kW|kJ|%|N)(?![A-Za-z_])[^()]*\)")
@@ -108,8 +108,8 @@ def curve(ax, label: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_tension_figure_shows_the_papers_numbers(runs):
-    """Paper: 2.93 m g at 0+, about 52 m g at release (the model gives 53.8; NOTES: the paper
-    reads it about 4 ms early), F_S⊥ peaks near 35 m g at 876 ms."""
+    """Paper: 2.93 m g at 0+, about 52 m g at release (the model gives 53.8; docs/background.md: the
+    paper reads it about 4 ms early), F_S⊥ peaks near 35 m g at 876 ms."""
     scene, run = runs["horsdal"]
     ax = fig_tension(run, None, scene).axes[0]
     t, fs = curve(ax, "F_S predicted")

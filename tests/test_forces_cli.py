@@ -8,8 +8,8 @@ import pytest
 
 from trebuchet.cli import main
 from trebuchet.ingest.cli import parse_pairs
-from trebuchet.ingest.read_log import write_log
-from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.logs.read_log import write_log
+from trebuchet.ingest.synthetic.simulated_log import simulated_log
 
 from .conftest import HORSDAL
 

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.ingest.kalman_batch import (
+from trebuchet.ingest.kalman.batch import (
     StepModel,
     backward_smoother,
     batch_kalman_filter,
@@ -21,16 +21,16 @@ from trebuchet.ingest.kalman_batch import (
     smoothed_states,
     white_noise_covariance,
 )
-from trebuchet.ingest.noise_tuning import jerk_noise_shape, track_end_common_noise
 from trebuchet.ingest.reconstruct import loads_from_smoothed
-from trebuchet.ingest.simulated_log import simulated_log
-from trebuchet.ingest.smooth import (
+from trebuchet.ingest.smoothing.noise_tuning import jerk_noise_shape, track_end_common_noise
+from trebuchet.ingest.smoothing.smooth import (
     ANGLES,
     BAND_ALPHA_FROM,
     SmoothSettings,
     shrunk_alpha,
     smooth,
 )
+from trebuchet.ingest.synthetic.simulated_log import simulated_log
 from trebuchet.ingest.uncertainty import propagate
 
 
@@ -177,7 +177,7 @@ def test_local_linear_window_follows_a_trend_to_the_track_end():
     """The local mean of a one-sided window averages a rising trend down at the track's
     end; the local-linear fit reproduces a linear trend exactly, also there, and in the
     interior of evenly weighted steps it equals the local mean for a constant."""
-    from trebuchet.ingest.noise_tuning import windowed_noise
+    from trebuchet.ingest.smoothing.noise_tuning import windowed_noise
 
     n = 200
     t = np.arange(n, dtype=float)

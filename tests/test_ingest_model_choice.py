@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.ingest.model_choice import (
+from trebuchet.ingest.smoothing.model_choice import (
     criterion,
     likelihood_weights,
     mixture_moments,
 )
-from trebuchet.ingest.noise_tuning import NoiseSearch
-from trebuchet.ingest.simulated_log import simulated_log
-from trebuchet.ingest.smooth import SmoothSettings, smooth
+from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
+from trebuchet.ingest.smoothing.smooth import SmoothSettings, smooth
+from trebuchet.ingest.synthetic.simulated_log import simulated_log
 
 ML = NoiseSearch(cutoff_factor=1.0)
 

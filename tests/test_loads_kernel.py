@@ -7,6 +7,7 @@ import pytest
 
 from trebuchet.model import forces as fo
 from trebuchet.model import kinematics as kin
+from trebuchet.model import loads as ld
 from trebuchet.model.simulate import integrate
 
 
@@ -47,7 +48,7 @@ def test_compiled_rows_equal_the_vectorised_formulas(engine, form, request):
     scene = request.getfixturevalue(engine)
     traj = integrate(scene)
     cols = traj.angle_columns(np.linspace(0.0, traj.t_end, 700))
-    out = fo.load_columns(cols, scene, form=form, release_state=traj.release_state)
+    out = ld.load_columns(cols, scene, form=form, release_state=traj.release_state)
     want = _vectorised(cols, scene, form == "projected")
     held = cols["phase"] <= 2
     assert held.any() and (~held).any() and (cols["phase"] == 1).any()
@@ -61,7 +62,7 @@ def test_row_loads_runs_as_plain_python(horsdal):
     """The row function is ordinary Python too: one row by hand equals the compiled row."""
     traj = integrate(horsdal)
     cols = traj.angle_columns(np.array([0.2, 0.6]))
-    out = fo.load_columns(cols, horsdal, release_state=traj.release_state)
+    out = ld.load_columns(cols, horsdal, release_state=traj.release_state)
     e = horsdal.engine
     for i in range(2):
         row = fo.row_loads(int(cols["phase"][i]), *(float(cols[c][i]) for group in
@@ -77,4 +78,4 @@ def test_a_bad_phase_is_refused_before_the_kernel(horsdal):
     cols = traj.angle_columns(np.linspace(0.0, 0.5, 5))
     cols["phase"] = np.array([1, 1, 4, 2, 2])
     with pytest.raises(Exception, match="row 2 has 4"):
-        fo.load_columns(cols, horsdal)
+        ld.load_columns(cols, horsdal)

@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
-from trebuchet.ingest.read_log import read_log, write_log
+from trebuchet.ingest.logs.read_log import read_log, write_log
 
 LOGS = Path(__file__).parent / "fixtures" / "logs"
 FPS = 240.0

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
-from trebuchet.ingest.read_log import MIN_FRAMES, read_log
+from trebuchet.ingest.logs.read_log import MIN_FRAMES, read_log
 
 LOGS = Path(__file__).parent / "fixtures" / "logs"
 HEADER = "t (s),theta (deg),psi (deg),phi (deg)"
@@ -64,6 +64,17 @@ def test_text_in_a_numeric_cell_names_row_and_column(tmp_path):
     msg = error_of(write(tmp_path, HEADER + "\n" + "\n".join(rows)))
     # the header is line 1, so the fifth data row is line 6 of the file
     assert "shot.csv, row 6, column 'psi (deg)'" in msg and "'oops' is not a number" in msg
+
+
+def test_the_file_is_named_once_in_front_of_the_place(tmp_path):
+    """Readers raise with the place in the file; read_log adds the file's name once."""
+    rows = good_rows()
+    rows[4] = "0.04,-46.0,oops,-168.0"
+    with pytest.raises(TrebuchetInputError) as err:
+        read_log(write(tmp_path, HEADER + "\n" + "\n".join(rows), name="s.csv"))
+    assert str(err.value).count("s.csv") == 1
+    assert err.value.where.endswith("/s.csv, row 6, column 'psi (deg)'")
+    assert err.value.message == "'oops' is not a number"
 
 
 def test_text_in_an_unused_column_is_no_error(tmp_path):

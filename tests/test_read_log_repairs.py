@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from trebuchet.errors import TrebuchetDataWarning
-from trebuchet.ingest.read_log import read_log
+from trebuchet.ingest.logs.read_log import read_log
 
 FPS = 100.0
 

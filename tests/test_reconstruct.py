@@ -16,8 +16,8 @@ from trebuchet.ingest.reconstruct import (
     reconstruct,
     sling_track_end,
 )
-from trebuchet.ingest.simulated_log import SMALL_ENGINE, simulated_log
-from trebuchet.ingest.smooth import SmoothSettings, smooth
+from trebuchet.ingest.smoothing.smooth import SmoothSettings, smooth
+from trebuchet.ingest.synthetic.simulated_log import SMALL_ENGINE, simulated_log
 from trebuchet.ingest.uncertainty import propagate
 from trebuchet.model.forces import LOAD_COLUMNS
 from trebuchet.model.scene import Scene
@@ -171,7 +171,7 @@ def test_given_events_out_of_order_are_refused_naming_file_and_event(horsdal, tm
         assert msg.startswith(str(path)), msg
         assert f"events['{late}']" in msg and f"after events['{early}']" in msg, msg
     # smooth() names the file too when the log carries its source
-    from trebuchet.ingest.read_log import read_log
+    from trebuchet.ingest.logs.read_log import read_log
 
     with pytest.raises(TrebuchetInputError, match=r"shot\.csv: events\['release'\] = 1.2 s is "
                        r"not after events\['trigger'\]"):

@@ -1,4 +1,4 @@
-"""The release from the engine's equations (ingest/release_model.py) when the sling's
+"""The release from the engine's equations (ingest/events/release_model.py) when the sling's
 track goes on past the release: an empty sling swinging, or a tracker on the stone."""
 
 from __future__ import annotations
@@ -11,8 +11,7 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
-from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
-from trebuchet.ingest.release_model import (
+from trebuchet.ingest.events.release_model import (
     ModelRelease,
     ReleaseFit,
     phase_change_profile,
@@ -21,8 +20,9 @@ from trebuchet.ingest.release_model import (
     release_jump_chi2,
     scene_doubt,
 )
-from trebuchet.ingest.simulated_log import continued_sling_log, simulated_log
-from trebuchet.ingest.smooth import smooth
+from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
+from trebuchet.ingest.smoothing.smooth import smooth
+from trebuchet.ingest.synthetic.simulated_log import continued_sling_log, simulated_log
 
 SOURCE = "the engine's equations (phase II before, phase III after)"
 

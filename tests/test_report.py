@@ -12,13 +12,13 @@ import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-import trebuchet.model.figures as figures_module
+import trebuchet.report.figures as figures_module
 from trebuchet.errors import TrebuchetInputError  # noqa: E402
-from trebuchet.ingest import report as report_mod  # noqa: E402
-from trebuchet.ingest.report import write_report  # noqa: E402
-from trebuchet.model import report_cli  # noqa: E402
-from trebuchet.model.figures import FIGURES  # noqa: E402
 from trebuchet.output import OUTPUT_MARKER  # noqa: E402
+from trebuchet.report import page as report_mod  # noqa: E402
+from trebuchet.report import report_cli  # noqa: E402
+from trebuchet.report.figures import FIGURES  # noqa: E402
+from trebuchet.report.page import write_report  # noqa: E402
 
 from .conftest import HORSDAL  # noqa: E402
 

@@ -16,7 +16,7 @@ from trebuchet.errors import TrebuchetInputError
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import phase_events as pev
 from trebuchet.model import shot_kernel as sk
-from trebuchet.model.forces import load_columns, loads
+from trebuchet.model.loads import load_columns, loads
 from trebuchet.model.simulate import _refuse_non_finite, integrate, simulate
 
 

@@ -14,9 +14,9 @@ import pytest
 
 from data_samples import make_samples as ms
 from trebuchet.errors import TrebuchetDataWarning
-from trebuchet.ingest.read_log import read_log
+from trebuchet.ingest.geometry.sling_circle import first_row_off_circle, sling_ratio
+from trebuchet.ingest.logs.read_log import read_log
 from trebuchet.ingest.reconstruct import reconstruct
-from trebuchet.ingest.sling_circle import first_row_off_circle, sling_ratio
 
 
 def test_ratio_is_sling_over_beam_in_any_unit():

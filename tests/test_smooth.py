@@ -10,8 +10,8 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
-from trebuchet.ingest.smooth import ANGLES, smooth
-from trebuchet.ingest.synthetic_shot import SHAPES, synthetic_log
+from trebuchet.ingest.smoothing.smooth import ANGLES, smooth
+from trebuchet.ingest.synthetic.shaped_log import SHAPES, synthetic_log
 
 TRIGGER, RELEASE = 0.3, 1.3
 
@@ -244,8 +244,8 @@ def test_piece_before_the_release_is_bounded_by_the_whole_log():
     free."""
     from pathlib import Path
 
-    from trebuchet.ingest.simulated_log import simulated_log
-    from trebuchet.ingest.smooth import SmoothSettings
+    from trebuchet.ingest.smoothing.smooth import SmoothSettings
+    from trebuchet.ingest.synthetic.simulated_log import simulated_log
     from trebuchet.model.scene import Scene
 
     scene = Scene.from_toml(Path(__file__).resolve().parents[1] / "data_samples"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from trebuchet.ingest.kalman_batch import (
+from trebuchet.ingest.kalman.batch import (
     StepModel,
     backward_smoother,
     backward_sums,
@@ -17,7 +17,7 @@ from trebuchet.ingest.kalman_batch import (
     smoothed_states,
     white_noise_covariance,
 )
-from trebuchet.ingest.kalman_filterpy import filterpy_filter_smoother
+from trebuchet.ingest.kalman.filterpy_reference import filterpy_filter_smoother
 
 
 @pytest.mark.parametrize("k", [2, 3, 4])

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trebuchet.ingest.events import robust_noise_sd, trigger_estimate
-from trebuchet.ingest.read_log import read_log
-from trebuchet.ingest.simulated_log import simulated_log
+from trebuchet.ingest.events.detection import robust_noise_sd, trigger_estimate
+from trebuchet.ingest.logs.read_log import read_log
+from trebuchet.ingest.synthetic.simulated_log import simulated_log
 from trebuchet.model.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[1]

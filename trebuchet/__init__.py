@@ -1,7 +1,7 @@
 """trebuchet: internal forces of the swinging-counterweight trebuchet.
 
 After E. Horsdal, "The swinging counterweight trebuchet: on internal forces".
-The public API (CONTRACT.md)::
+The public API (docs/interface.md)::
 
     import trebuchet as tb
     scene = tb.Scene.from_toml("data_samples/horsdal_large.toml")
@@ -19,20 +19,20 @@ from __future__ import annotations
 from typing import Any
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetDataWarning, TrebuchetInputError
-from trebuchet.model.forces import loads as forces
+from trebuchet.model.loads import loads as forces
 from trebuchet.model.scene import Engine, Release, Scene, Start
 from trebuchet.model.simulate import simulate
-
-__version__ = "0.1.0"
+from trebuchet.version import __version__
 
 __all__ = [
     "Scene", "Engine", "Start", "Release", "simulate", "forces", "read_log", "smooth",
     "reconstruct", "compare", "TrebuchetInputError", "TrebuchetDataWarning", "ModelValidityWarning",
+    "__version__",
 ]
 
 _LAZY = {
-    "read_log": ("trebuchet.ingest.read_log", "read_log"),
-    "smooth": ("trebuchet.ingest.smooth", "smooth"),
+    "read_log": ("trebuchet.ingest.logs.read_log", "read_log"),
+    "smooth": ("trebuchet.ingest.smoothing.smooth", "smooth"),
     "reconstruct": ("trebuchet.ingest.reconstruct", "reconstruct"),
     "compare": ("trebuchet.ingest.compare", "compare"),
 }

@@ -19,10 +19,10 @@ from trebuchet.errors import TrebuchetInputError
 
 ROOMS = (
     "trebuchet.model.cli",
-    "trebuchet.model.report_cli",
+    "trebuchet.report.report_cli",
     "trebuchet.model.sweep_cli",
     "trebuchet.ingest.cli",
-    "trebuchet.ingest.compare_cli",
+    "trebuchet.report.compare_cli",
     "trebuchet.fmu.cli",
 )
 
@@ -39,7 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="trebuchet",
         description="Internal forces of the swinging-counterweight trebuchet (Horsdal).")
-    from trebuchet import __version__
+    from trebuchet.version import __version__
 
     parser.add_argument("--version", action="version", version=f"trebuchet {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")

@@ -1,0 +1,54 @@
+"""Lift-off from the data: where the reconstructed trough normal force reaches zero.
+
+In phase I the projectile is dragged in the trough; the trough pushes up with
+``F_N = m g − F_S·e_y`` (N, :func:`trebuchet.model.forces.trough_normal_force`). Lift-off
+is its first zero after the trigger (docs/background.md: the accelerations are continuous there, so
+the loads are too). Times in the log's time (s).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["lift_off_time", "lift_off_sd"]
+
+
+def lift_off_time(t: np.ndarray, normal_force: np.ndarray, trigger: float | None,
+                  release: float | None, hold_s: float = 0.02) -> float | None:
+    """Log time (s) where ``normal_force`` (N, phase-I formula on every row) first falls
+    through zero after ``trigger`` and stays at or below zero for ``hold_s`` s (at least
+    three frames), linearly interpolated between frames; None if it never does before
+    ``release``."""
+    t = np.asarray(t, dtype=float)
+    fn = np.asarray(normal_force, dtype=float)
+    lo = t[0] - 1.0 if trigger is None else trigger
+    hi = t[-1] + 1.0 if release is None else release
+    inside = np.flatnonzero((t > lo) & (t <= hi) & np.isfinite(fn))
+    if inside.size < 2:
+        return None
+    dt = float(np.median(np.diff(t)))
+    hold = max(3, int(np.ceil(hold_s / dt)))
+    below = fn[inside] <= 0.0
+    for k in np.flatnonzero(below):
+        if k == 0:
+            continue
+        run = below[k:k + hold]
+        if run.all() and (k + hold <= below.size or t[inside[-1]] >= hi - dt):
+            i0, i1 = inside[k - 1], inside[k]
+            f0, f1 = fn[i0], fn[i1]
+            frac = f0 / (f0 - f1) if f0 != f1 else 0.0
+            return float(t[i0] + frac * (t[i1] - t[i0]))
+    return None
+
+
+def lift_off_sd(t: np.ndarray, normal_force: np.ndarray, normal_force_sd: np.ndarray,
+                lift_off: float) -> float:
+    """sd (s) of the lift-off time: the normal force's sd (N) at the crossing divided by
+    its rate of fall (N/s), from the frames on either side of it."""
+    t = np.asarray(t, dtype=float)
+    i = int(np.clip(np.searchsorted(t, lift_off), 1, t.size - 1))
+    slope = (normal_force[i] - normal_force[i - 1]) / (t[i] - t[i - 1])
+    sd = 0.5 * (normal_force_sd[i] + normal_force_sd[i - 1])
+    if not (np.isfinite(slope) and np.isfinite(sd)) or slope == 0.0:
+        return float("nan")
+    return float(abs(sd / slope))

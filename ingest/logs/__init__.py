@@ -1,0 +1,1 @@
+"""A log as the package reads it: format recognised, checked, repaired, angles from points."""

@@ -1,0 +1,1 @@
+"""The smoother: noise tuning, motion-model choice, trigger and release scan, band calibration."""

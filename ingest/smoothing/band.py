@@ -1,0 +1,163 @@
+"""The band around the smoothed angles: the measurement noise's exact error covariance, the
+share of the model's process noise the data show (a method-of-moments α shrunk toward the
+smoothing residual's, :func:`shrunk_alpha`), and the smoothing's bias.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+
+from trebuchet.ingest.kalman.batch import (
+    FilterResult,
+    SmootherResult,
+    StepModel,
+    backward_sums,
+    error_covariance,
+    refiltered,
+    simulated_model_runs,
+    smoothed_states,
+)
+from trebuchet.ingest.smoothing.problem import (
+    SmoothingProblem,
+    TuningState,
+)
+
+__all__ = ["residual_moments", "shrunk_alpha", "calibrated_band", "bias_band"]
+
+
+def residual_moments(steps: StepModel, filt: FilterResult, Z: np.ndarray, valid: np.ndarray,
+                      fitted: np.ndarray, lam: np.ndarray, r2: np.ndarray, kick: np.ndarray,
+                      prior: np.ndarray, draws: int
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``SmoothSettings.band_alpha_from = "shrunk"``: per frame and angle (n, A) the
+    statistic ``ρᵀ λQ ρ`` of the backward sums ``ρ`` of the smoothing residual
+    ``z − x̂`` (the same gains run on it), its expectations under the measurement noise
+    and the event kicks alone and under the model's white process noise alone, by
+    ``draws`` simulated runs of the model each (fixed seed), and (n, draws, A) its
+    values on the sums of one run of each, data with ``α = 1``."""
+    n, A = Z.shape[1], Z.shape[0]
+    rng = np.random.default_rng(20261124)
+    half = A * draws
+    many = np.tile(np.arange(A), 2 * draws)
+    drawn = np.arange(2 * half)
+    noise = np.where((drawn >= half)[:, None], (lam * r2[:, None])[many], 0.0)
+    kicks = np.where(drawn < half, kick[many], 0.0)
+    meas = np.where(drawn < half, r2[many], 0.0)
+    z = simulated_model_runs(steps, noise, kicks, meas, prior[many] * (meas > 0)[:, None, None],
+                             rng)
+    ok = valid[many]
+    z = np.where(ok, z, 0.0)
+    fits = filt.series(many)
+    zero = np.zeros((2 * half, steps.k))
+    fit = smoothed_states(steps, refiltered(steps, fits, z, ok, zero), ok)[:, :, 0].T
+    # the data's residual and the draws' in one batch
+    everyone = np.concatenate([np.arange(A), many])
+    res = np.concatenate([np.where(valid, Z - fitted, 0.0), z - fit])
+    ok = valid[everyone]
+    rho = backward_sums(steps, refiltered(steps, filt.series(everyone), res, ok,
+                                          np.zeros((A + 2 * half, steps.k))), ok)
+    stat = np.einsum("nai,nij,naj->na", rho, steps.Q0, rho, optimize=True) * lam[everyone].T
+    null = stat[:, A:A + half].reshape(n, draws, A).mean(axis=1)
+    slope = stat[:, A + half:].reshape(n, draws, A).mean(axis=1)
+    both = rho[:, A:A + half] + rho[:, A + half:]  # ρ is linear in the data
+    alt = np.einsum("nai,nij,naj->na", both, steps.Q0, both, optimize=True) * lam[many[:half]].T
+    return stat[:, :A], null, slope, alt.reshape(n, draws, A)
+
+
+def shrunk_alpha(prior: np.ndarray, estimate: np.ndarray, variance: np.ndarray,
+                 frames: np.ndarray) -> np.ndarray:
+    """Empirical-Bayes shrinkage of the frames' ``estimate`` (any shape) toward ``prior``:
+    with ``estimate ~ N(α, variance)`` and ``α ~ N(prior, τ²)`` the posterior mean
+    ``prior + τ² / (τ² + variance) · (estimate − prior)``, ``τ²`` by DerSimonian and
+    Laird's moment estimator over the ``frames`` (bool mask): ``Σ w (estimate − prior)²``
+    has the expectation ``N + τ² Σ w`` (``w = 1 / variance``; ``N`` frames, 0 if
+    negative). ``variance = inf``: the prior."""
+    w = np.where(frames, 1.0 / variance, 0.0)
+    d2 = np.where(frames, (estimate - prior) ** 2, 0.0)
+    total = float(np.sum(w))
+    tau2 = max((float(np.sum(w * d2)) - int(np.sum(frames & (w > 0)))) / total, 0.0) \
+        if total > 0 else 0.0
+    with np.errstate(invalid="ignore"):
+        weight = np.where(np.isfinite(variance), tau2 / (tau2 + variance), 0.0)
+    return prior + np.nan_to_num(weight) * (estimate - prior)
+
+
+def calibrated_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """The band's covariance and its process-noise share α (A, n): the measurement noise's
+    exact error covariance ``E0`` (``band_variance="noise"``), or ``E0 + α (P − E0)`` with α
+    the share of the model's white noise the data show near each frame
+    (``"calibrated"``; see :class:`SmoothSettings`)."""
+    settings, steps, k, A, n, valid = p.settings, fit.steps, p.k, p.A, p.n, p.valid
+    est, lam_use, sm, kick = fit.est, fit.lam_use, fit.sm, p.kick
+    band_scale = np.ones((A, n))
+    used = fit.filt.series(np.arange(A))
+    own = SmootherResult(sm.x[:, :A], sm.P[:, :A], sm.r[:, :A], sm.N[:, :A])
+    true_noise = kick[None, :, None, None] * steps.G[:, None]
+    E0, R0 = error_covariance(steps, used, own, valid, np.array([e.r2 for e in est]),
+                              true_noise, p.P0, parts=True)
+    if settings.band_variance == "noise":
+        return E0, band_scale
+    # how much of the white noise the data show, frame by frame: the backward
+    # sums r have E[r rᵀ] = R0 + α (N − R0) when the true process noise is α
+    # times the model's; a method-of-moments α over a Gaussian window
+    lam_q = lam_use[:, :, None, None] * steps.Q0[None]  # (A, n, k, k)
+    lam_q = np.swapaxes(lam_q, 0, 1)  # (n, A, k, k)
+    rr = sm.r[:, :A]
+    seen = np.einsum("nai,naij,naj->na", rr, lam_q, rr)
+    base = np.einsum("naij,naji->na", lam_q, R0)
+    slope = np.einsum("naij,naji->na", lam_q, sm.N[:, :A] - R0)
+    shrink = settings.band_alpha_from == "shrunk"
+    if shrink:
+        seen_r, base_r, slope_r, alt = residual_moments(
+            steps, used, p.Z, valid, xs[:, :, 0].T, lam_use,
+            np.array([e.r2 for e in est]), kick, p.P0, settings.band_draws)
+    alpha = np.ones((A, n))
+    a_res = np.zeros((A, n))
+    v_res = np.full((A, n), np.inf)
+    noisy = np.flatnonzero(steps.Q0[:, 0, 0] > 0)
+    frames = np.zeros((A, n), bool)
+    for a in range(A):
+        tc = np.exp(np.mean(np.log(lam_use[a, noisy]))) ** (-1.0 / (2 * k))
+        width = settings.band_window * tc
+        num = gaussian_filter1d(seen[:, a] - base[:, a], width, mode="constant")
+        den = gaussian_filter1d(slope[:, a], width, mode="constant")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            alpha[a] = np.where(den > 0, np.maximum(num, 0.0) / den, 1.0)
+        if shrink:
+            # the residual's α and its sampling variance at α = 1 (the
+            # windowed statistic's scatter over the draws of noise plus process)
+            num = gaussian_filter1d(seen_r[:, a] - base_r[:, a], width, mode="constant")
+            den = gaussian_filter1d(slope_r[:, a], width, mode="constant")
+            sd = gaussian_filter1d(alt[:, :, a], width, axis=0,
+                                   mode="constant").std(axis=1, ddof=1)
+            good = (den > 0) & (sd > 0)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                a_res[a] = np.where(good, num / den, 0.0)
+                v_res[a] = np.where(good, (sd / den) ** 2, np.inf)
+            ok = np.flatnonzero(valid[a])
+            frames[a, ok[0]:ok[-1] + 1] = steps.Q0[ok[0]:ok[-1] + 1, 0, 0] > 0
+    alpha = np.clip(alpha, 0.0, 1.0)
+    if shrink:
+        alpha = np.clip(shrunk_alpha(alpha, a_res, v_res, frames), 0.0, 1.0)
+    return E0 + alpha.T[:, :, None, None] * (Ps - E0), alpha
+
+
+def bias_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: np.ndarray) -> np.ndarray:
+    """``Ps`` plus ``b bᵀ``, the smoothing's bias ``b`` from the same smoother run again on
+    its own output, ``bias_iterations`` terms of its series."""
+    steps, valid = fit.steps, p.valid
+    used = fit.filt.series(np.arange(p.A))
+
+    def again(series: np.ndarray, prior: np.ndarray) -> np.ndarray:
+        return smoothed_states(steps, refiltered(steps, used, series, valid, prior), valid)
+
+    bias = again(xs[:, :, 0].T, p.x0) - xs
+    step_bias = bias
+    for _ in range(p.settings.bias_iterations - 1):
+        # the next term of the bias's series: with x̂ = M x, (M − I) x =
+        # Σ_j (I − M)^j (M − I) x̂, each term the last one less its own smoothing
+        step_bias = step_bias - again(step_bias[:, :, 0].T, np.zeros_like(p.x0))
+        bias = bias + step_bias
+    return Ps + bias[..., :, None] * bias[..., None, :]

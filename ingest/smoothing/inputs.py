@@ -1,0 +1,153 @@
+"""What :func:`~trebuchet.ingest.smoothing.smooth.smooth` checks of its input: the log's columns
+and times, per-angle options and given event times (errors name the log's file, column
+and row)."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.ingest.smoothing.settings import ANGLES
+
+
+def validated_log(log: pd.DataFrame, min_frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """Time (n,) and angles (3, n) from ``log``; raises :class:`TrebuchetInputError`.
+
+    Checks: a DataFrame with ``t``, ``theta``, ``psi``, ``phi``; numeric; ``t`` finite and
+    strictly increasing; angles finite or NaN (a gap); each angle either untracked (all
+    NaN) or with at least ``min_frames`` valid frames; at least one tracked.
+    """
+    if not isinstance(log, pd.DataFrame):
+        raise TrebuchetInputError(f"smooth: expected a pandas DataFrame, got {type(log).__name__}")
+    for col in ("t", *ANGLES):
+        if col not in log.columns:
+            raise TrebuchetInputError(f"smooth: the log has no column '{col}'")
+    n = len(log)
+    if n < min_frames:
+        raise TrebuchetInputError(
+            f"smooth: the log has {n} rows; smoothing needs at least {min_frames} frames"
+        )
+    arrays = {}
+    for col in ("t", *ANGLES):
+        try:
+            arrays[col] = log[col].to_numpy(dtype=float, na_value=np.nan)
+        except (TypeError, ValueError) as exc:
+            raise TrebuchetInputError(f"smooth: column '{col}' is not numeric ({exc})") from None
+    t = arrays["t"]
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise TrebuchetInputError(f"smooth: column 't', row {bad[0]}: time is {t[bad[0]]}")
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise TrebuchetInputError(
+            f"smooth: column 't', row {i}: time {t[i]:g} s does not increase "
+            f"(row {i - 1} has {t[i - 1]:g} s)"
+        )
+    Z = np.vstack([arrays[a] for a in ANGLES])
+    for a, name in enumerate(ANGLES):
+        bad = np.flatnonzero(np.isinf(Z[a]))
+        if bad.size:
+            raise TrebuchetInputError(f"smooth: column '{name}', row {bad[0]}: value is infinite")
+        nv = int(np.isfinite(Z[a]).sum())
+        if 0 < nv < min_frames:
+            raise TrebuchetInputError(
+                f"smooth: column '{name}' has {nv} valid frames; at least {min_frames} needed"
+            )
+    if not np.isfinite(Z).any():
+        raise TrebuchetInputError("smooth: columns theta, psi and phi are all empty")
+    return t, Z
+
+
+def unwrapped_angles(Z: np.ndarray) -> np.ndarray:
+    """Angles with jumps of more than π between valid frames unwrapped (warns if any)."""
+    Z = Z.copy()
+    for a, name in enumerate(ANGLES):
+        ok = np.isfinite(Z[a])
+        if ok.sum() > 1 and np.any(np.abs(np.diff(Z[a][ok])) > np.pi):
+            Z[a][ok] = np.unwrap(Z[a][ok])
+            warnings.warn(
+                f"smooth: column '{name}' jumps by more than π between frames; unwrapped",
+                TrebuchetDataWarning,
+                stacklevel=3,
+            )
+    return Z
+
+
+def per_angle(value, name: str, tracked: list[str]) -> dict[str, float]:
+    """``q`` or ``r`` as a positive float per angle (NaN: to be estimated)."""
+    if value is None:
+        return {a: np.nan for a in tracked}
+    if isinstance(value, Mapping):
+        unknown = set(value) - set(ANGLES)
+        if unknown:
+            raise TrebuchetInputError(f"smooth: {name} has unknown angle(s) {sorted(unknown)}")
+        vals = {a: (np.nan if value.get(a) is None else value[a]) for a in tracked}
+    else:
+        vals = {a: value for a in tracked}
+    out = {}
+    for a, v in vals.items():
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise TrebuchetInputError(f"smooth: {name}['{a}'] = {v!r} is not a number") from None
+        if not (np.isnan(v) or (np.isfinite(v) and v > 0)):
+            raise TrebuchetInputError(f"smooth: {name}['{a}'] = {v!r} must be positive")
+        out[a] = v
+    return out
+
+
+EVENT_ORDER = ("trigger", "lift_off", "release")
+
+
+def checked_events(events, t: np.ndarray, source: str = "smooth") -> dict[str, float | None]:
+    """Given events (log time, s): key present = given (None = no such event).
+
+    Each given time must lie inside the log's span ``t[0]``–``t[-1]`` and the given ones
+    must be ordered trigger < lift-off < release; otherwise a :class:`TrebuchetInputError`
+    whose message starts with ``source`` (the log file's name when known) and names the
+    event.
+    """
+    if events is None:
+        return {}
+    if not isinstance(events, Mapping):
+        raise TrebuchetInputError(f"{source}: events must be a dict like "
+                                  "{'trigger': t, 'lift_off': t, 'release': t}")
+    out: dict[str, float | None] = {}
+    for key, v in events.items():
+        if key not in EVENT_ORDER:
+            raise TrebuchetInputError(f"{source}: unknown event {key!r} in events (known: "
+                                      + ", ".join(EVENT_ORDER) + ")")
+        if v is None:
+            out[key] = None
+            continue
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise TrebuchetInputError(f"{source}: events[{key!r}] = {v!r} is not a time "
+                                      "in s") from None
+        if not (t[0] <= v <= t[-1]):
+            raise TrebuchetInputError(
+                f"{source}: events[{key!r}] = {v:g} s lies outside the log "
+                f"({t[0]:g}–{t[-1]:g} s)"
+            )
+        out[key] = v
+    timed = [(k, out[k]) for k in EVENT_ORDER if out.get(k) is not None]
+    for (k0, v0), (k1, v1) in zip(timed, timed[1:], strict=False):
+        if v1 <= v0:
+            raise TrebuchetInputError(
+                f"{source}: events[{k1!r}] = {v1:g} s is not after events[{k0!r}] = {v0:g} s "
+                "(the order is trigger < lift_off < release)"
+            )
+    return out
+
+
+def log_name(log) -> str:
+    """The log's file (``log.attrs['source']``, as read) for messages, else ``"smooth"``."""
+    source = log.attrs.get("source") if isinstance(log, pd.DataFrame) else None
+    return str(source) if source else "smooth"

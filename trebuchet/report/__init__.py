@@ -1,0 +1,1 @@
+"""Figures and HTML reports, above both the model and the ingest path."""

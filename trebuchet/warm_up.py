@@ -1,0 +1,47 @@
+"""Compile (or load from numba's cache) every kernel a user's first call would wait for.
+
+``make install`` runs ``python -m trebuchet.warm_up``: a shot of the paper's engine with all
+its outputs (the simulator's and the load columns' kernels, ~20 s when fresh) and the smoothing
+of a short synthetic log (the Kalman filter's kernel, ~2 s).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+__all__ = ["warm_up_model", "warm_up_ingest", "main"]
+
+
+def warm_up_model() -> None:
+    """Simulate the paper's shot with every output, and evaluate each phase's dense output."""
+    from trebuchet.model.paper import horsdal_scene_path
+    from trebuchet.model.scene import Scene
+    from trebuchet.model.simulate import integrate, simulate
+
+    scene = Scene.from_toml(horsdal_scene_path())
+    simulate(scene)
+    for p in integrate(scene).phases:
+        p.sol(np.array([p.t0, p.t1]))
+
+
+def warm_up_ingest() -> None:
+    """Smooth a short synthetic log (120 fps, 0.5° noise, a few dropped frames)."""
+    from trebuchet.ingest.smoothing.smooth import smooth
+    from trebuchet.ingest.synthetic.shaped_log import synthetic_log
+
+    log, _ = synthetic_log(120.0, 0.5, duration=1.0, trigger=0.2, release=0.7,
+                           drop_fraction=0.02)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        smooth(log)
+
+
+def main() -> None:
+    warm_up_model()
+    warm_up_ingest()
+
+
+if __name__ == "__main__":
+    main()
