@@ -8,16 +8,20 @@ from trebuchet.output import check_target
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    fmu = sub.add_parser("fmu", help="build the co-simulation FMU and its cross-check files",
-                         description="The trebuchet as an FMI 2.0 co-simulation FMU.")
+    fmu = sub.add_parser("fmu", help="build the FMU and its cross-check files",
+                         description="The trebuchet as a native FMI 2.0 or 3.0 FMU "
+                         "(co-simulation and model exchange).")
     commands = fmu.add_subparsers(dest="fmu_command", required=True, metavar="COMMAND")
 
     p = commands.add_parser("build", help="build Trebuchet.fmu",
-                            description="Build the FMI 2.0 co-simulation FMU (the in-process "
-                            "simulator behind pythonfmu). The host needs Python with this "
-                            "package installed.")
+                            description="Build the native FMU: C generated from the model's "
+                            "formulas and compiled (gcc; win64 too where "
+                            "x86_64-w64-mingw32-gcc is installed), co-simulation and model "
+                            "exchange in one file. The host needs nothing but the FMU.")
     p.add_argument("-o", "--output", default="Trebuchet.fmu", help="FMU file to write "
                    "(default Trebuchet.fmu)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="FMI version "
+                   "(default 2)")
     p.set_defaults(run=_build)
 
     p = commands.add_parser("crosscheck", help="write the FMI cross-check layout for an FMU",
@@ -33,8 +37,8 @@ def _build(args: argparse.Namespace) -> int:
     from trebuchet.fmu.build import build_fmu
 
     check_target(args.output)
-    path = build_fmu(args.output)
-    print(f"FMI 2.0 co-simulation FMU -> {path}")
+    path = build_fmu(args.output, fmi=args.fmi)
+    print(f"FMI {args.fmi}.0 FMU (co-simulation and model exchange) -> {path}")
     return 0
 
 

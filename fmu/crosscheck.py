@@ -18,15 +18,14 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.fmu.build import MODEL_NAME
-from trebuchet.fmu.cosim import OUTPUT_NAMES, after_release_for
-from trebuchet.fmu.interface import PARAMETERS, scene_from_parameters
-from trebuchet.model.simulate import simulate
+from trebuchet.fmu.interface import OUTPUT_NAMES, PARAMETERS, scene_from_parameters
+from trebuchet.fmu.model_description import MODEL_NAME
+from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, simulate
 from trebuchet.output import atomic_dir
 from trebuchet.version import __version__
 
-__all__ = ["reference", "write_crosscheck", "START_TIME", "STOP_TIME", "STEP_SIZE",
-           "COMMAND_TIME", "REL_TOL"]
+__all__ = ["reference", "write_crosscheck", "after_release_for", "START_TIME", "STOP_TIME",
+           "STEP_SIZE", "COMMAND_TIME", "REL_TOL"]
 
 START_TIME = 0.0
 STOP_TIME = 1.5  # s
@@ -35,13 +34,21 @@ COMMAND_TIME = 0.9  # s: the release command rises here, before the scene's rele
 REL_TOL = 1e-8
 
 
+def after_release_for(t_stop: float | None) -> float | None:
+    """Seconds of phase III to simulate for outputs up to ``t_stop`` (s) whatever the release
+    time, at least the simulator's default; None (the default) for an open end."""
+    if t_stop is None or not np.isfinite(t_stop):
+        return None
+    return max(DEFAULT_AFTER_RELEASE, float(t_stop))
+
+
 def reference(times: Sequence[float] | np.ndarray, values: Mapping[str, float | str] | None = None,
               command_time: float | None = None, t_stop: float | None = None) -> pd.DataFrame:
     """The FMU's outputs computed in-process: ``simulate`` of the parameters' scene at
     ``times`` (s), released at ``command_time`` (s) if the command rises there between lift-off
     and the scene's own release; phase III as long as the FMU integrates it for ``t_stop`` (s).
 
-    Returns a DataFrame with ``time`` and :data:`~trebuchet.fmu.cosim.OUTPUT_NAMES` (the sling
+    Returns a DataFrame with ``time`` and :data:`~trebuchet.fmu.interface.OUTPUT_NAMES` (the sling
     angles 0 after release, as the FMU reports them).
     """
     if values is None:
@@ -92,13 +99,14 @@ def write_crosscheck(fmu: str | Path, out_dir: str | Path) -> Path:
 def _readme() -> str:
     return f"""# {MODEL_NAME}.fmu (trebuchet {__version__})
 
-Swinging-counterweight trebuchet after Horsdal, FMI 2.0 co-simulation, built with pythonfmu.
+Swinging-counterweight trebuchet after Horsdal, FMI 2.0 co-simulation and model exchange,
+native C (`trebuchet fmu build`).
 Parameters at their start values (the large engine of Table 1 of the paper, g = 9.82 m/s²).
 The input `release_command` rises at {COMMAND_TIME} s and releases the projectile there.
 
 The reference `{MODEL_NAME}_ref.csv` is the in-process simulation of the trebuchet package
 (DOP853, rtol 1e-10) at the communication points; the FMU reproduces it to 1e-8 relative.
 
-Host requirements: a Python (3.11 or later) with the `trebuchet` package, numpy, scipy and
-pandas installed; non-Python hosts must preload libpython. See fmu/README.md.
+Host requirements: none but the FMU (binaries for linux64, and win64 where the build had
+the cross compiler; the C sources are in `sources/`). See fmu/README.md.
 """

@@ -1,14 +1,17 @@
 """The FMU's variables: every scene key as a parameter, the release command, every output.
 
-One table, :data:`VARIABLES`, is the interface: the slave registers its variables from it (in
-this order, so value references are the positions in the table) and the build writes units,
-ranges and the model structure of ``modelDescription.xml`` from it. Parameter names are the
-scene file's ``[section] key`` written ``section.key``; :func:`scene_from_parameters` turns
-their values into a :class:`~trebuchet.model.scene.Scene` through ``Scene.from_dict``, so a
-bad value fails with the scene's own message.
+One table, :data:`VARIABLES`, is the interface: value references are the positions in the
+table (the C glue's ``treb_variables.h`` is generated from it), and the build writes units,
+display units, ranges, Enumerations and the model structure of ``modelDescription.xml`` from
+it. Parameter names are the scene file's ``[section] key`` written ``section.key``; the choices
+(counterweight, projectile, flight model) are Enumerations whose FMI values count from 1.
+:func:`scene_from_parameters` turns parameter values into a
+:class:`~trebuchet.model.scene.Scene` through ``Scene.from_dict`` (the in-process reference
+the tests compare the FMU with); the FMU's C checks the same rules with the same messages.
 
-Units are SI (m, kg, kg m², s, N, N m, W, J) except the start pose and release angle, which
-are in degrees as in the scene file (``*_deg``).
+Units are SI (m, kg, kg m², s, N, N m, W, J, rad) except the start pose and release angle,
+which are in degrees as in the scene file (``*_deg``); the angle outputs are in rad, shown in
+deg (display unit).
 """
 
 from __future__ import annotations
@@ -20,8 +23,10 @@ from typing import Literal
 from trebuchet.model.forces import LOAD_COLUMNS
 from trebuchet.model.scene import Scene
 
-__all__ = ["Variable", "VARIABLES", "PARAMETERS", "OUTPUTS", "RELEASE_COMMAND", "UNITS",
-           "scene_from_parameters", "parameters_from_scene"]
+__all__ = ["Variable", "VARIABLES", "PARAMETERS", "OUTPUTS", "OUTPUT_NAMES", "RELEASE_COMMAND",
+           "UNITS",
+           "scene_from_parameters", "parameters_from_scene", "choice_name", "choice_index",
+           "DISPLAY_UNITS"]
 
 
 @dataclass(frozen=True)
@@ -30,12 +35,19 @@ class Variable:
 
     name: str
     causality: Literal["parameter", "input", "output"]
-    type: Literal["Real", "Integer", "Boolean", "String"]
+    type: Literal["Real", "Integer", "Boolean", "Enumeration"]
     unit: str | None
     description: str
     start: float | bool | str | None = None
     min: float | None = None
     max: float | None = None
+    display_unit: str | None = None
+    choices: tuple[str, ...] = ()
+
+    @property
+    def type_name(self) -> str | None:
+        """The declared type of an Enumeration (its choices' name), else None."""
+        return f"{self.name.split('.')[-1]}_choice" if self.type == "Enumeration" else None
 
 
 # Units: name -> (SI base exponents kg, m, s, rad; factor to the base unit).
@@ -56,6 +68,11 @@ UNITS: dict[str, tuple[dict[str, int], float]] = {
     "W": ({"kg": 1, "m": 2, "s": -3}, 1.0),
     "J": ({"kg": 1, "m": 2, "s": -2}, 1.0),
 }
+#: Display units: unit -> (display unit, factor: display value = factor * value).
+DISPLAY_UNITS: dict[str, tuple[str, float]] = {
+    "rad": ("deg", 57.29577951308232), "rad/s": ("deg/s", 57.29577951308232),
+    "rad/s2": ("deg/s2", 57.29577951308232),
+}
 
 # Start values: the large engine of Table 1 of the paper (data_samples/horsdal_large.toml).
 PARAMETERS: tuple[Variable, ...] = (
@@ -71,9 +88,9 @@ PARAMETERS: tuple[Variable, ...] = (
     Variable("engine.m_b", "parameter", "Real", "kg", "beam mass", 622.0, 0.0, 1e6),
     Variable("engine.M", "parameter", "Real", "kg", "counterweight mass", 19100.0, 0.0, 1e7),
     Variable("engine.m", "parameter", "Real", "kg", "projectile mass", 100.0, 0.0, 1e5),
-    Variable("engine.counterweight", "parameter", "String", None,
+    Variable("engine.counterweight", "parameter", "Enumeration", None,
              "\"hinged\" (swings on its hinge, the paper) or \"fixed\" (rigid on the beam)",
-             "hinged"),
+             "hinged", choices=("hinged", "fixed")),
     Variable("engine.I", "parameter", "Real", "kg.m2",
              "beam moment of inertia about the pivot; 0: uniform beam, "
              "m_b (L1^2 - L1 L2 + L2^2) / 3", 0.0, 0.0, 1e8),
@@ -87,18 +104,19 @@ PARAMETERS: tuple[Variable, ...] = (
     Variable("start.phi_deg", "parameter", "Real", "deg",
              "sling angle at rest (the projectile must lie in the trough)",
              -180.0, -270.0, -90.0),
-    Variable("start.projectile", "parameter", "String", None,
+    Variable("start.projectile", "parameter", "Enumeration", None,
              "\"trough\" (the paper), \"sling\" (hanging at rest in the sling) or \"none\" "
-             "(dry fire: set release.time and release.velocity_angle_deg to 0)", "trough"),
+             "(dry fire: set release.time and release.velocity_angle_deg to 0)", "trough",
+             choices=("trough", "sling", "none")),
     Variable("release.time", "parameter", "Real", "s",
              "release at this time after the trigger; 0: no time rule", 0.997, 0.0, 60.0),
     Variable("release.velocity_angle_deg", "parameter", "Real", "deg",
              "release when the projectile's velocity climbs at this angle above horizontal; "
              "0: no angle rule", 0.0, 0.0, 90.0),
     Variable("environment.g", "parameter", "Real", "m/s2", "gravity", 9.82, 0.0, 100.0),
-    Variable("flight.model", "parameter", "String", None,
+    Variable("flight.model", "parameter", "Enumeration", None,
              "flight after release: \"vacuum\" (the paper) or \"drag\" (quadratic air drag)",
-             "vacuum"),
+             "vacuum", choices=("vacuum", "drag")),
     Variable("flight.diameter", "parameter", "Real", "m",
              "projectile diameter (used with flight.model = \"drag\")", 0.0, 0.0, 10.0),
     Variable("flight.drag_coefficient", "parameter", "Real", None,
@@ -139,10 +157,11 @@ def _load_variable(column: str) -> Variable:
 
 OUTPUTS: tuple[Variable, ...] = (
     Variable("phase", "output", "Integer", None, "1 trough, 2 in sling, 3 after release"),
-    *(Variable(a, "output", "Real", u, d) for a, u, d in _ANGLES),
-    *(Variable(f"{a}_d", "output", "Real", f"{u}/s", f"{d}, rate") for a, u, d in _ANGLES),
-    *(Variable(f"{a}_dd", "output", "Real", f"{u}/s2", f"{d}, acceleration")
+    *(Variable(a, "output", "Real", u, d, display_unit="deg") for a, u, d in _ANGLES),
+    *(Variable(f"{a}_d", "output", "Real", f"{u}/s", f"{d}, rate", display_unit="deg/s")
       for a, u, d in _ANGLES),
+    *(Variable(f"{a}_dd", "output", "Real", f"{u}/s2", f"{d}, acceleration",
+               display_unit="deg/s2") for a, u, d in _ANGLES),
     *(_load_variable(c) for c in LOAD_COLUMNS),
     Variable("F_N", "output", "Real", "N", "normal force of the trough on the projectile"),
     Variable("sling_tension", "output", "Real", "N",
@@ -151,6 +170,23 @@ OUTPUTS: tuple[Variable, ...] = (
 )
 
 VARIABLES: tuple[Variable, ...] = (*PARAMETERS, RELEASE_COMMAND, *OUTPUTS)
+#: The outputs' names, in order.
+OUTPUT_NAMES: tuple[str, ...] = tuple(v.name for v in OUTPUTS)
+
+_BY_NAME = {v.name: v for v in VARIABLES}
+
+
+def choice_name(v: Variable, value: int | str) -> str:
+    """The choice an Enumeration's value names: its name, or its position from 1 (FMI)."""
+    if isinstance(value, str):
+        return value
+    return v.choices[int(value) - 1]
+
+
+def choice_index(v: Variable, value: str) -> int:
+    """The FMI value (position from 1) of an Enumeration's choice."""
+    return v.choices.index(value) + 1
+
 
 _OPTIONAL_ZERO = {"engine.I", "engine.H", "release.time", "release.velocity_angle_deg"}
 _DRAG_ONLY = {"flight.diameter", "flight.drag_coefficient", "flight.air_density"}
@@ -160,11 +196,11 @@ def _nested(values: Mapping[str, float | str], release_key: str | None) -> dict:
     """The scene dict: keys left at their "not given" value (0, or a choice at the paper's
     default) are left out, so a scene file without them means the same."""
     data: dict[str, dict[str, float | str]] = {}
-    drag = values["flight.model"] != "vacuum"
+    drag = choice_name(_BY_NAME["flight.model"], values["flight.model"]) != "vacuum"
     for p in PARAMETERS:
         section, key = p.name.split(".", 1)
-        if p.type == "String":
-            value: float | str = str(values[p.name])
+        if p.type == "Enumeration":
+            value: float | str = choice_name(p, values[p.name])
             if value == p.start:
                 continue
         else:
@@ -196,7 +232,8 @@ def scene_from_parameters(values: Mapping[str, float | str],
                                     velocity_angle=by_angle.release.velocity_angle)
     key = "time" if has_time else "velocity_angle_deg" if has_angle else None
     data = _nested(values, key)
-    if key is None and values["start.projectile"] != "none":
+    if key is None and choice_name(_BY_NAME["start.projectile"],
+                                   values["start.projectile"]) != "none":
         data["release"] = {}  # the scene names the missing rule
     return Scene.from_dict(data, source=source)
 
@@ -205,7 +242,7 @@ def parameters_from_scene(scene: Scene) -> dict[str, float | str]:
     """FMU parameter values (``section.key`` -> value) of ``scene``; angles go through degrees,
     so build the reference scene with :func:`scene_from_parameters` of these values."""
     d = scene.to_dict()
-    values: dict[str, float | str] = {p.name: p.start if p.type == "String" else 0.0
+    values: dict[str, float | str] = {p.name: p.start if p.type == "Enumeration" else 0.0
                                       for p in PARAMETERS}
     for name in _DRAG_ONLY:
         values[name] = next(p.start for p in PARAMETERS if p.name == name)

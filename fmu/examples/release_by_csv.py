@@ -8,7 +8,6 @@ Writes the input CSV (``time, release_command``: 0, then 1 from COMMAND_TIME s),
 
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 
@@ -32,5 +31,3 @@ def main(fmu: str, out: str, command_time: float = 0.85) -> np.ndarray:
 
 if __name__ == "__main__":
     main(sys.argv[1], sys.argv[2], *(float(a) for a in sys.argv[3:4]))
-    sys.stdout.flush()
-    os._exit(0)  # pythonfmu 0.7.0 can corrupt the heap at interpreter exit (fmu/README.md)

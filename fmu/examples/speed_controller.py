@@ -11,7 +11,6 @@ FMU releases at the next communication point. 1 ms steps for 1.5 s; writes
 from __future__ import annotations
 
 import math
-import os
 import shutil
 import sys
 from dataclasses import dataclass
@@ -70,5 +69,3 @@ def main(fmu: str, out: str, target: float = 50.0, step: float = 1e-3,
 
 if __name__ == "__main__":
     main(sys.argv[1], sys.argv[2], *(float(a) for a in sys.argv[3:4]))
-    sys.stdout.flush()
-    os._exit(0)  # pythonfmu 0.7.0 can corrupt the heap at interpreter exit (fmu/README.md)

@@ -1,0 +1,329 @@
+/* One FMU instance: see treb_model.h. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "treb_model.h"
+
+void treb_model_new(TrebModel *m, int cosim)
+{
+    memset(m, 0, sizeof *m);
+    m->cosim = cosim;
+    for (int i = 0; i < TREB_NV; i++) m->values[i] = TREB_VAR_START[i];
+    treb_shot_init_empty(&m->shot);
+}
+
+void treb_model_free(TrebModel *m)
+{
+    treb_shot_free(&m->shot);
+}
+
+void treb_model_reset(TrebModel *m)
+{
+    int cosim = m->cosim;
+    treb_model_free(m);
+    treb_model_new(m, cosim);
+}
+
+static void publish(TrebModel *m, int phase, const double *out)
+{
+    m->values[TREB_VR_phase] = phase;
+    for (int j = 0; j < TREB_N_OUTPUTS; j++) m->values[TREB_VR_FIRST_OUTPUT + j] = out[j];
+    m->outputs_valid = 1;
+}
+
+int treb_model_exit_init(TrebModel *m, double start_time, char *msg)
+{
+    TrebScene sc;
+    if (start_time < 0.0) {
+        snprintf(msg, TREB_MSG, "start time = %g s: the FMU's time is the time after the "
+                 "trigger and starts at 0 or later", start_time);
+        return -1;
+    }
+    if (treb_scene_from_values(m->values, &sc, msg)) return -1;
+    m->time = start_time;
+    m->command_prev = m->values[TREB_VR_release_command] != 0.0;
+    if (m->cosim) {
+        int r = treb_shot_start(&m->shot, &sc, msg);
+        if (r) return -1;
+    } else {
+        treb_shot_free(&m->shot);
+        m->shot.sc = sc;
+        m->phase = sc.projectile == 1 ? 1 : sc.projectile == 2 ? 2 : 3;
+        double x[TREB_NX_STATES] = {sc.theta, sc.psi, sc.phi, 0.0, 0.0, 0.0};
+        if (m->phase == 1) {  /* the sling on the trough constraint */
+            double out[TREB_N_OUTPUTS];
+            treb_outputs_of(&sc, 1, (double[4]){x[0], x[1], 0.0, 0.0}, out);
+            x[2] = out[TREB_OUT_phi];
+        } else if (m->phase == 3) {
+            x[2] = 0.0;
+        }
+        memcpy(m->x, x, sizeof x);
+        treb_model_indicators(m, m->z_ref);
+    }
+    m->initialized = 1;
+    m->outputs_valid = 0;
+    return treb_model_outputs(m, msg);
+}
+
+int treb_model_step(TrebModel *m, double t, double h, char *msg)
+{
+    int status = 0, command = m->values[TREB_VR_release_command] != 0.0;
+    msg[0] = '\0';
+    if (command && !m->command_prev) {
+        int r = treb_shot_command(&m->shot, t, msg);
+        if (r < 0) return -1;
+        status = r;
+    }
+    m->command_prev = command;
+    double out[TREB_N_OUTPUTS];
+    int phase;
+    char err[TREB_MSG];
+    if (treb_shot_outputs(&m->shot, t + h, &phase, out, err)) {
+        memcpy(msg, err, TREB_MSG);
+        return -1;
+    }
+    m->time = t + h;
+    publish(m, phase, out);
+    return status;
+}
+
+/* The model exchange's phase state as the generated functions take it. */
+static void phase_state(const TrebModel *m, double *y)
+{
+    if (m->phase == 2) {
+        memcpy(y, m->x, 6 * sizeof(double));
+    } else {
+        y[0] = m->x[0]; y[1] = m->x[1]; y[2] = m->x[3]; y[3] = m->x[4];
+    }
+}
+
+int treb_model_outputs(TrebModel *m, char *msg)
+{
+    if (m->outputs_valid) return 0;
+    if (m->cosim) {
+        double out[TREB_N_OUTPUTS];
+        int phase;
+        if (treb_shot_outputs(&m->shot, m->time, &phase, out, msg)) return -1;
+        publish(m, phase, out);
+        return 0;
+    }
+    double y[6], out[TREB_N_OUTPUTS];
+    phase_state(m, y);
+    treb_outputs_of(&m->shot.sc, m->phase, y, out);
+    if (m->phase == 3 && m->shot.sc.projectile != 3) {
+        double f[5];
+        treb_flight_at(&m->shot, m->time, f);
+        out[TREB_OUT_x_m] = f[0]; out[TREB_OUT_y_m] = f[1];
+        out[TREB_OUT_vx_m] = f[2]; out[TREB_OUT_vy_m] = f[3]; out[TREB_OUT_E_m] = f[4];
+    }
+    publish(m, m->phase, out);
+    return 0;
+}
+
+void treb_model_derivatives(TrebModel *m, double *dx)
+{
+    double y[6], out[TREB_N_OUTPUTS];
+    phase_state(m, y);
+    treb_outputs_of(&m->shot.sc, m->phase, y, out);
+    dx[0] = out[TREB_OUT_theta_d]; dx[1] = out[TREB_OUT_psi_d]; dx[2] = out[TREB_OUT_phi_d];
+    dx[3] = out[TREB_OUT_theta_dd]; dx[4] = out[TREB_OUT_psi_dd]; dx[5] = out[TREB_OUT_phi_dd];
+}
+
+/* Phase I: lift-off margin F_N/(m g), sling upright margin; phase II: projectile height
+ * (m), climb margin (m/s, with a release angle). Unused indicators are 1. */
+void treb_model_indicators(TrebModel *m, double *z)
+{
+    const TrebScene *sc = &m->shot.sc;
+    double y[6];
+    phase_state(m, y);
+    z[0] = z[1] = z[2] = 1.0;
+    if (m->phase == 1) {
+        (sc->fixed ? treb_lift_off_fixed : treb_lift_off_hinged)(sc->q, y, &z[0]);
+        treb_sling_upright(sc->q, y, &z[1]);
+    } else if (m->phase == 2) {
+        treb_ground(sc->q, y, &z[0]);
+        if (sc->has_angle) {
+            double x[7];
+            memcpy(x, y, sizeof y);
+            x[6] = sc->angle;
+            treb_climb(sc->q, x, &z[1]);
+        }
+    }
+}
+
+/* d(outputs)/d(x) at the model exchange's state (generated Jacobian of the phase; the
+ * projectile's flight after release depends on time only). */
+static void jacobian(TrebModel *m, double J[TREB_N_OUTPUTS][TREB_NX_STATES])
+{
+    static const int beam[4] = {0, 1, 3, 4};  /* theta, psi, theta_d, psi_d in x */
+    const TrebScene *sc = &m->shot.sc;
+    double y[6], x[9], jp[TREB_N_OUTPUTS * 6];
+    int n = m->phase == 2 ? 6 : 4;
+    phase_state(m, y);
+    memcpy(x, y, n * sizeof(double));
+    memcpy(x + n, sc->rest, 3 * sizeof(double));
+    if (m->phase == 1) (sc->fixed ? treb_jacobian1_fixed : treb_jacobian1_hinged)(sc->q, x, jp);
+    else if (m->phase == 2)
+        (sc->fixed ? treb_jacobian2_fixed : treb_jacobian2_hinged)(sc->q, x, jp);
+    else (sc->fixed ? treb_jacobian3_fixed : treb_jacobian3_hinged)(sc->q, x, jp);
+    memset(J, 0, sizeof(double) * TREB_N_OUTPUTS * TREB_NX_STATES);
+    for (int i = 0; i < TREB_N_OUTPUTS; i++)
+        for (int j = 0; j < n; j++) J[i][n == 6 ? j : beam[j]] = jp[i * n + j];
+    if (m->phase == 3) {
+        static const int flight[5] = {TREB_OUT_x_m, TREB_OUT_y_m, TREB_OUT_vx_m, TREB_OUT_vy_m,
+                                      TREB_OUT_E_m};
+        for (int k = 0; k < 5; k++) memset(J[flight[k]], 0, sizeof J[0]);
+    }
+}
+
+static int state_index(unsigned vr)
+{
+    static const unsigned states[TREB_NX_STATES] = {TREB_VR_theta, TREB_VR_psi, TREB_VR_phi,
+                                                    TREB_VR_theta_d, TREB_VR_psi_d,
+                                                    TREB_VR_phi_d};
+    for (int k = 0; k < TREB_NX_STATES; k++)
+        if (states[k] == vr) return k;
+    return -1;
+}
+
+int treb_model_directional(TrebModel *m, const unsigned *unknowns, size_t n_unknowns,
+                           const unsigned *knowns, size_t n_knowns, const double *seed,
+                           double *sensitivity, char *msg)
+{
+    double J[TREB_N_OUTPUTS][TREB_NX_STATES];
+    if (m->cosim || !m->initialized) {
+        snprintf(msg, TREB_MSG, "directional derivatives are provided in model exchange, after "
+                 "initialisation, with respect to the continuous states");
+        return -1;
+    }
+    for (size_t k = 0; k < n_knowns; k++) {
+        if (state_index(knowns[k]) < 0) {
+            snprintf(msg, TREB_MSG, "directional derivative: value reference %u is not a "
+                     "continuous state", knowns[k]);
+            return -1;
+        }
+    }
+    jacobian(m, J);
+    for (size_t u = 0; u < n_unknowns; u++) {
+        long i = (long)unknowns[u] - TREB_VR_FIRST_OUTPUT;
+        if (i < 0 || i >= TREB_N_OUTPUTS) {
+            snprintf(msg, TREB_MSG, "directional derivative: value reference %u is not a Real "
+                     "output", unknowns[u]);
+            return -1;
+        }
+        double acc = 0.0;
+        for (size_t k = 0; k < n_knowns; k++) acc += J[i][state_index(knowns[k])] * seed[k];
+        sensitivity[u] = acc;
+    }
+    return 0;
+}
+
+static void release_now(TrebModel *m)
+{
+    double x[4] = {m->x[0], m->x[2], m->x[3], m->x[5]}, out[4];
+    treb_projectile(m->shot.sc.q, x, out);
+    m->shot.release[0] = m->time;
+    memcpy(m->shot.release + 1, out, sizeof out);
+    m->shot.t_rel = m->time;
+    m->shot.flight_started = 0;
+    m->shot.flight.n = 0;
+    m->phase = 3;
+    m->x[2] = m->x[5] = 0.0;
+}
+
+int treb_model_event(TrebModel *m, int *states_changed, int *time_defined, double *next_time,
+                     char *msg)
+{
+    const TrebScene *sc = &m->shot.sc;
+    double z[TREB_NZ];
+    int status = 0, command = m->values[TREB_VR_release_command] != 0.0;
+    msg[0] = '\0';
+    *states_changed = 0;
+    treb_model_indicators(m, z);
+    if (m->phase == 1) {
+        if (z[1] >= 0.0 && m->z_ref[1] < 0.0) {
+            snprintf(msg, TREB_MSG, "FMU parameters: [engine] M = %g kg: the counterweight "
+                     "cannot lift the projectile: at t = %.4g s the sling stands vertical over "
+                     "a projectile still in the trough", sc->q[TREB_Q_M], m->time);
+            return -1;
+        }
+        if (z[0] <= 0.0 && m->z_ref[0] > 0.0 && sc->has_time && m->time >= sc->t_release) {
+            snprintf(msg, TREB_MSG, "FMU parameters: [release] time = %g s comes before lift-off "
+                     "at %.4g s: the projectile is still in the trough", sc->t_release, m->time);
+            return -1;
+        }
+        if (z[0] <= 0.0 && m->z_ref[0] > 0.0) {  /* lift-off: the sling takes the projectile */
+            double y[4] = {m->x[0], m->x[1], m->x[3], m->x[4]}, out[TREB_N_OUTPUTS];
+            treb_outputs_of(sc, 1, y, out);
+            m->x[2] = out[TREB_OUT_phi];
+            m->x[5] = out[TREB_OUT_phi_d];
+            m->shot.t_lift = m->time;
+            m->phase = 2;
+            *states_changed = 1;
+        }
+    } else if (m->phase == 2) {
+        if (z[0] <= 0.0 && m->z_ref[0] > 0.0) {
+            snprintf(msg, TREB_MSG, "FMU parameters: [release]: the projectile strikes the "
+                     "ground at t = %.4g s while still in the sling; release it earlier, use a "
+                     "shorter sling or raise the pivot", m->time);
+            return -1;
+        }
+        int by_time = sc->has_time && m->time >= sc->t_release;
+        int by_angle = sc->has_angle && z[1] >= 0.0 && m->z_ref[1] < 0.0;
+        int by_command = command && !m->command_prev;
+        if (by_time || by_angle || by_command) {
+            release_now(m);
+            *states_changed = 1;
+        }
+    } else if (command && !m->command_prev) {
+        snprintf(msg, TREB_MSG, "release command at t = %.9g s ignored: %s", m->time,
+                 sc->projectile == 3 ? "a dry fire has no projectile"
+                                     : "the projectile was already released");
+        status = 1;
+    }
+    if (m->phase == 1 && command && !m->command_prev) {
+        snprintf(msg, TREB_MSG, "release command at t = %.9g s ignored: the projectile lies in "
+                 "the trough until lift-off", m->time);
+        status = 1;
+    }
+    m->command_prev = command;
+    *time_defined = m->phase == 2 && sc->has_time && m->time < sc->t_release;
+    *next_time = sc->t_release;
+    treb_model_indicators(m, m->z_ref);
+    m->outputs_valid = 0;
+    return status;
+}
+
+int treb_model_copy(TrebModel *dst, const TrebModel *src)
+{
+    *dst = *src;
+    return treb_shot_copy(&dst->shot, &src->shot);
+}
+
+size_t treb_model_serialized_size(const TrebModel *m)
+{
+    return sizeof(TrebModel) + treb_shot_serialized_size(&m->shot);
+}
+
+void treb_model_serialize(const TrebModel *m, unsigned char *buf)
+{
+    TrebModel head = *m;
+    memset(&head.shot, 0, sizeof head.shot);
+    memcpy(buf, &head, sizeof head);
+    treb_shot_serialize(&m->shot, buf + sizeof head);
+}
+
+int treb_model_deserialize(TrebModel *m, const unsigned char *buf, size_t size)
+{
+    TrebModel head;
+    if (size < sizeof head) return -1;
+    memcpy(&head, buf, sizeof head);
+    TrebShot shot;
+    treb_shot_init_empty(&shot);
+    if (treb_shot_deserialize(&shot, buf + sizeof head, size - sizeof head)) return -1;
+    treb_model_free(m);
+    *m = head;
+    m->shot = shot;
+    return 0;
+}

@@ -1,0 +1,103 @@
+/* The trebuchet's shot in C: DOP853 with dense output and event location (as the simulator's
+ * compiled kernel, model/shot_kernel.py), the phases of a shot (model/simulate.py) and the
+ * outputs at any time. Hand-written glue only: every formula it evaluates is generated from
+ * the model's Python (treb_formulas.c). Units: s, rad, rad/s, m, m/s, N, J. */
+#ifndef TREB_SHOT_H
+#define TREB_SHOT_H
+
+#include <stddef.h>
+#include "treb_formulas.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+#define TREB_NS 12     /* DOP853 stages */
+#define TREB_NX 16     /* stages with the dense output's three */
+#define TREB_NP 7      /* interpolating polynomial's coefficients */
+#define TREB_MAXN 6    /* largest state */
+#define TREB_MAXEV 3   /* most events at once */
+#define TREB_MAX_SHOT 60.0  /* s: a shot still in the trough or sling by then is refused */
+#define TREB_MSG 512
+
+/* Event kinds: model/phase_events.py */
+enum { TREB_LIFT_OFF = 0, TREB_SLING_UPRIGHT = 1, TREB_GROUND = 2, TREB_RELEASE_TIME = 3,
+       TREB_RELEASE_ANGLE = 4 };
+/* Right-hand sides: phases 1-3, and the projectile's flight with drag */
+enum { TREB_DRAG_FLIGHT = 4 };
+
+/* The scene: parameters of the formulas (q, treb_formulas.h order) and the rules. */
+typedef struct {
+    double q[TREB_NQ];
+    int fixed;        /* counterweight rigid on the beam */
+    int projectile;   /* 1 trough, 2 sling, 3 none */
+    int drag;         /* flight with air drag */
+    double theta, psi, phi;             /* start pose, rad */
+    int has_time, has_angle;
+    double t_release, angle;            /* release rules: s, rad */
+    double diameter, drag_coefficient, air_density;
+    double rest[3];   /* energies at rest, J */
+    double k_drag;    /* 1/m */
+} TrebScene;
+
+/* One accepted step: start time, size, start state and the dense output's coefficients. */
+typedef struct {
+    double t, h;
+    double y[TREB_MAXN];
+    double F[TREB_NP][TREB_MAXN];
+} TrebStep;
+
+/* A DOP853 integration in progress (no pointers: it is copied and serialised as bytes). */
+typedef struct {
+    int kind, n, fixed;
+    double q[TREB_NQ];
+    double k_drag;
+    double rtol, atol;
+    int nev;
+    int ev_kind[TREB_MAXEV];
+    double ev_par[TREB_MAXEV], ev_dir[TREB_MAXEV], g_old[TREB_MAXEV];
+    double t, t_bound, h_abs;
+    double y[TREB_MAXN], f[TREB_MAXN];
+    long nfev;
+} TrebDop;
+
+typedef struct {
+    TrebStep *data;
+    int n, cap;
+} TrebSteps;
+
+typedef struct {
+    TrebScene sc;
+    int n_phases;
+    int phase[3];
+    double t0[3], t1[3];     /* phase k covers (t1[k-1], t1[k]]; the last is open */
+    int first[3];            /* its first step in steps */
+    TrebSteps steps;
+    TrebDop open;            /* the last phase, integrated further on demand */
+    double t_lift, t_rel;    /* events (NAN: none) */
+    double release[5];       /* projectile t, x, y, vx, vy at release */
+    /* phase II's start, for a release command */
+    int p2_phase_index;
+    double p2_t0, p2_first_step, p2_y[6];
+    /* the flight with drag after release */
+    TrebSteps flight;
+    TrebDop flight_dop;
+    int flight_started;
+} TrebShot;
+
+int treb_scene_rest(TrebScene *sc);
+void treb_shot_init_empty(TrebShot *s);
+int treb_shot_start(TrebShot *s, const TrebScene *sc, char *msg);
+int treb_shot_outputs(TrebShot *s, double t, int *phase, double *out, char *msg);
+int treb_shot_command(TrebShot *s, double t_c, char *msg);
+void treb_shot_free(TrebShot *s);
+int treb_shot_copy(TrebShot *dst, const TrebShot *src);
+size_t treb_shot_serialized_size(const TrebShot *s);
+void treb_shot_serialize(const TrebShot *s, unsigned char *buf);
+int treb_shot_deserialize(TrebShot *s, const unsigned char *buf, size_t size);
+
+/* Formulas by phase and counterweight (generated), used by the model exchange too. */
+void treb_outputs_of(const TrebScene *sc, int phase, const double *y, double *out);
+void treb_flight_at(TrebShot *s, double t, double *out);
+
+#endif

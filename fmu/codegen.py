@@ -1,0 +1,344 @@
+"""C for the native FMU, generated from the simulator's own Python formulas.
+
+No equation of motion, event function or load is typed in C. Each :class:`Formula` below
+names the model functions it calls (:mod:`trebuchet.model.dynamics`,
+:mod:`~trebuchet.model.phase_events`, :mod:`~trebuchet.model.forces`,
+:mod:`~trebuchet.model.kinematics`, :mod:`~trebuchet.model.flight`); :func:`generate_c` runs
+them on sympy symbols, eliminates common subexpressions (``sympy.cse``) and prints C99 with
+sympy's C printer. The same ``build`` callables run on floats with :mod:`math` in the test
+that compares the compiled C with the Python on random states (``tests/test_fmu_codegen.py``).
+
+Functions written on floats with :mod:`math` by name (``row_loads``, the event functions, the
+drag flight) are traced through a copy that sees ``math`` bound to sympy (:func:`traced`);
+the module itself is not touched.
+
+Every generated function has one signature, ``void treb_<name>(const double *q, const
+double *x, double *out)``: ``q`` the engine's parameters in the order of
+:data:`PARAMETER_NAMES`, ``x`` the inputs of the formula (:attr:`Formula.inputs`), ``out``
+its results (:attr:`Formula.outputs`). Units are those of the model: m, kg, kg m², rad,
+rad/s, rad/s², s, N, N m, W, J.
+"""
+
+from __future__ import annotations
+
+import math
+import types
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import cache
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from trebuchet.fmu.interface import OUTPUT_NAMES
+from trebuchet.model import dynamics as dyn
+from trebuchet.model import flight as flt
+from trebuchet.model import forces as frc
+from trebuchet.model import kinematics as kin
+from trebuchet.model import phase_events as pev
+from trebuchet.model.scene import default_moment_of_inertia
+
+__all__ = ["Formula", "FORMULAS", "PARAMETER_NAMES", "ANGLE_NAMES", "LOAD_OUTPUTS",
+           "generate_c", "generate_header", "engine_namespace", "traced", "sympy_math"]
+
+#: The engine's parameters, in the order of the generated functions' ``q`` array: lengths (m),
+#: masses (kg), I (kg m²), the fixed counterweight's offset ψ − θ (rad), g (m/s²), H (m).
+PARAMETER_NAMES = ("L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m", "I", "offset", "g", "H")
+#: Angle outputs of every phase, in order (the sling's are 0 after release).
+ANGLE_NAMES = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "psi_dd",
+               "phi_dd")
+#: Load outputs (the FMU's outputs after phase and angles), columns of ``row_loads``.
+LOAD_OUTPUTS = tuple(n for n in OUTPUT_NAMES if n != "phase" and n not in ANGLE_NAMES)
+_STATE = {1: ("th", "ps", "th_d", "ps_d"), 2: ("th", "ps", "ph", "th_d", "ps_d", "ph_d"),
+          3: ("th", "ps", "th_d", "ps_d")}
+_REST = ("rest_m", "rest_M", "rest_beam")
+
+
+@cache
+def sympy_math() -> SimpleNamespace:
+    """The names of :mod:`math` the model uses, as sympy functions."""
+    import sympy as sp
+
+    return SimpleNamespace(sin=sp.sin, cos=sp.cos, tan=sp.tan, asin=sp.asin, sqrt=sp.sqrt,
+                           pi=sp.pi, nan=sp.nan, hypot=lambda a, b: sp.sqrt(a * a + b * b))
+
+
+def traced(f: Callable, lib: Any) -> Callable:
+    """``f`` itself for ``lib is math``; else a copy of ``f`` whose global ``math`` is ``lib``,
+    and whose module's other functions (that it may call by name) are such copies too. The
+    module is not changed."""
+    if lib is math:
+        return f
+    names = {**f.__globals__, "math": lib}
+    for key, value in f.__globals__.items():
+        if isinstance(value, types.FunctionType) and value.__module__ == f.__module__:
+            names[key] = types.FunctionType(value.__code__, names, value.__name__,
+                                            value.__defaults__, value.__closure__)
+    return types.FunctionType(f.__code__, names, f.__name__, f.__defaults__, f.__closure__)
+
+
+def engine_namespace(q: Sequence[Any], fixed: bool) -> SimpleNamespace:
+    """An engine-like object (the attributes of :class:`~trebuchet.model.scene.Engine`) from
+    the parameter values ``q`` (:data:`PARAMETER_NAMES`)."""
+    v = dict(zip(PARAMETER_NAMES, q, strict=True))
+    return SimpleNamespace(L1=v["L1"], L2=v["L2"], L_CM=v["L_CM"], L3=v["L3"], L4=v["L4"],
+                           m_b=v["m_b"], M=v["M"], m=v["m"], I=v["I"],
+                           counterweight_offset=v["offset"] if fixed else None,
+                           fixed_counterweight=fixed)
+
+
+#: How closely a generated Jacobian matches the central difference (relative to its peak).
+JACOBIAN_TOLERANCE = 1e-6
+
+Build = Callable[[SimpleNamespace, Any, Any, dict[str, Any], Any], Sequence[Any]]
+
+
+@dataclass(frozen=True)
+class Formula:
+    """One generated C function: its name, what it is, its inputs ``x`` and outputs ``out``
+    (names), and ``build(e, g, H, x, lib)``, the model's Python giving the outputs (``lib``
+    :mod:`math` on floats, :func:`sympy_math` on symbols). ``fixed``: the counterweight rigid
+    on the beam (None: the formula does not depend on it). ``dry``: no projectile (m = 0).
+    ``tolerance``: how closely the compiled C matches ``build`` on floats, relative to each
+    output's peak: rounding for the formulas, the central difference's own error for the
+    Jacobians (whose ``build`` on floats differentiates numerically)."""
+
+    name: str
+    doc: str
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    build: Build
+    fixed: bool | None = None
+    dry: bool = False
+    tolerance: float = 1e-12
+
+
+def _angles(phase: int, x: dict[str, Any], e: Any, g: Any, H: Any, lib: Any) -> tuple:
+    """θ, ψ, φ and their rates and accelerations of ``phase`` from its state (φ 0 in III)."""
+    th, ps = x["th"], x["ps"]
+    th_d, ps_d = x["th_d"], x["ps_d"]
+    if phase == 1:
+        ph, ph_d, th_dd, ps_dd, ph_dd = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H,
+                                                                 lib)
+    elif phase == 2:
+        ph, ph_d = x["ph"], x["ph_d"]
+        th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, lib)
+    else:
+        ph = ph_d = ph_dd = 0.0
+        th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g, lib)
+    return th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd
+
+
+def _outputs(phase: int) -> Build:
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+        th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = _angles(phase, x, e, g, H, lib)
+        row = traced(frc.row_loads, lib)(phase, th, th_d, th_dd, ps, ps_d, ps_dd, ph, ph_d,
+                                         ph_dd, e, g, H, False, tuple(x[r] for r in _REST))
+        cols = dict(zip(frc.ROW_COLUMNS, row, strict=True))
+        return [th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd,
+                *(cols[n] for n in LOAD_OUTPUTS)]
+    return build
+
+
+#: Relative step of the central differences that check the generated Jacobians.
+FD_STEP = 1e-5
+
+
+def _jacobian(phase: int) -> Build:
+    """d(outputs)/d(state) of ``phase``, row-major (output by output): sympy's derivative of
+    the outputs on symbols; a central difference of the same Python on floats."""
+    outputs = _outputs(phase)
+    states = _STATE[phase]
+
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+        if lib is math:
+            columns = []
+            for n in states:
+                h = FD_STEP * max(1.0, abs(x[n]))
+                up = outputs(e, g, H, {**x, n: x[n] + h}, lib)
+                down = outputs(e, g, H, {**x, n: x[n] - h}, lib)
+                columns.append([(a - b) / (2.0 * h) for a, b in zip(up, down, strict=True)])
+            return [columns[j][i] for i in range(len(columns[0])) for j in range(len(states))]
+        import sympy as sp
+
+        values = [sp.sympify(v) for v in outputs(e, g, H, x, lib)]
+        return [sp.nan if v is sp.nan else sp.diff(v, x[n]) for v in values for n in states]
+    return build
+
+
+def _rates(phase: int) -> Build:
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+        y = [x[n] for n in _STATE[phase]]
+        if phase == 1:
+            return dyn.state_rates_phase1(y, e, g, H, lib)
+        if phase == 2:
+            return dyn.state_rates_phase2(y, e, g, lib)
+        return dyn.state_rates_phase3(y, e, g, lib)
+    return build
+
+
+def _state(x: dict[str, Any], phase: int) -> list[Any]:
+    """The phase's state from the inputs (zeros where a formula takes none, as the time
+    rule)."""
+    return [x.get(n, 0.0) for n in _STATE[phase]]
+
+
+def _vacuum_flight(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+    release = {k: x[f"r_{k}"] for k in ("t", "x", "y", "vx", "vy")}
+    t = np.array([x["t"]], dtype=object if lib is not math else float)
+    r, v = flt.projectile_in_flight(release, t, g, flt.Flight(), e.m)
+    E = frc.projectile_energy((v[0][0], v[1][0]), r[1][0], e, g) - x["rest_m"]
+    return [r[0][0], r[1][0], v[0][0], v[1][0], E]
+
+
+def _drag_rates(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+    rhs = traced(flt._drag_rhs, lib)(x["k"], g)
+    return list(rhs(0.0, [x["x"], x["y"], x["vx"], x["vy"]]))
+
+
+def _drag_constant(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+    f = SimpleNamespace(diameter=x["diameter"], drag_coefficient=x["drag_coefficient"],
+                        air_density=x["air_density"])
+    return [traced(flt.drag_constant, lib)(f, e.m)]
+
+
+def _flight_energy(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+    return [frc.projectile_energy((x["vx"], x["vy"]), x["y"], e, g) - x["rest_m"]]
+
+
+def _rest_energies(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+    c_th, s_th = lib.cos(x["th"]), lib.sin(x["th"])
+    c_ps, s_ps = lib.cos(x["ps"]), lib.sin(x["ps"])
+    return frc.energies_xy(c_th, s_th, 0.0, c_ps, s_ps, 0.0, (0.0, 0.0), x["y_m"], e, g, H)
+
+
+def _projectile(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+    c_th, s_th = lib.cos(x["th"]), lib.sin(x["th"])
+    c_ph, s_ph = lib.cos(x["ph"]), lib.sin(x["ph"])
+    r = kin.projectile_position_xy(c_th, s_th, c_ph, s_ph, e, H)
+    v = kin.projectile_velocity_xy(c_th, s_th, x["th_d"], c_ph, s_ph, x["ph_d"], e)
+    return [*r, *v]
+
+
+def _event(kind: int, phase: int) -> Build:
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+        value = traced(pev.event_value, lib)(kind, x.get("t", 0.0), _state(x, phase), e, g, H,
+                                             x.get("par", 0.0))
+        return [value]
+    return build
+
+
+def _all_formulas() -> tuple[Formula, ...]:
+    out: list[Formula] = []
+    angles_loads = (*ANGLE_NAMES, *LOAD_OUTPUTS)
+    for fixed in (False, True):
+        cw = "fixed" if fixed else "hinged"
+        for phase in (1, 2, 3):
+            out.append(Formula(f"rates{phase}_{cw}", f"phase {phase} state derivative "
+                               "(dynamics.state_rates_phase*)", _STATE[phase],
+                               tuple(f"d_{n}" for n in _STATE[phase]), _rates(phase), fixed))
+            out.append(Formula(f"outputs{phase}_{cw}", f"phase {phase} angles, rates, "
+                               "accelerations and loads (dynamics + forces.row_loads)",
+                               (*_STATE[phase], *_REST), angles_loads, _outputs(phase), fixed))
+        out.append(Formula(f"outputs3_{cw}_dry", "dry fire (no projectile): angles and loads",
+                           (*_STATE[3], *_REST), angles_loads, _outputs(3), fixed, dry=True))
+        for phase in (1, 2, 3):
+            out.append(Formula(f"jacobian{phase}_{cw}", f"phase {phase}: d(outputs)/d(state), "
+                               "row-major", (*_STATE[phase], *_REST),
+                               tuple(f"d{o}/d{n}" for o in angles_loads for n in _STATE[phase]),
+                               _jacobian(phase), fixed, tolerance=JACOBIAN_TOLERANCE))
+        out.append(Formula(f"lift_off_{cw}", "phase_events.lift_off_margin: F_N / (m g)",
+                           _STATE[1], ("margin",), _event(pev.LIFT_OFF, 1), fixed))
+    out += [
+        Formula("sling_upright", "phase_events.sling_upright_margin", _STATE[1], ("margin",),
+                _event(pev.SLING_UPRIGHT, 1)),
+        Formula("ground", "phase_events.projectile_height (m)", _STATE[2], ("height",),
+                _event(pev.GROUND, 2)),
+        Formula("release_time", "phase_events.time_to_release (s)", ("t", "par"), ("dt",),
+                _event(pev.RELEASE_TIME, 2)),
+        Formula("climb", "phase_events.climb_margin (m/s); par: release angle (rad)",
+                (*_STATE[2], "par"), ("margin",), _event(pev.RELEASE_ANGLE, 2)),
+        Formula("projectile", "kinematics.projectile_position_xy, projectile_velocity_xy",
+                ("th", "ph", "th_d", "ph_d"), ("x", "y", "vx", "vy"), _projectile),
+        Formula("vacuum_flight", "flight.projectile_in_flight (vacuum) and its energy",
+                ("t", "r_t", "r_x", "r_y", "r_vx", "r_vy", "rest_m"),
+                ("x", "y", "vx", "vy", "E_m"), _vacuum_flight),
+        Formula("drag_rates", "flight._drag_rhs: (x, y, vx, vy)'", ("k", "x", "y", "vx", "vy"),
+                ("d_x", "d_y", "d_vx", "d_vy"), _drag_rates),
+        Formula("drag_constant", "flight.drag_constant (1/m)",
+                ("diameter", "drag_coefficient", "air_density"), ("k",), _drag_constant),
+        Formula("flight_energy", "forces.projectile_energy less its rest value (J)",
+                ("vx", "vy", "y", "rest_m"), ("E_m",), _flight_energy),
+        Formula("rest_energies", "forces.energies_xy at rest (J)", ("th", "ps", "y_m"),
+                _REST, _rest_energies),
+        Formula("default_inertia", "scene.default_moment_of_inertia (kg m2)", (), ("I",),
+                lambda e, g, H, x, lib: [default_moment_of_inertia(e.m_b, e.L1, e.L2)]),
+    ]
+    return tuple(out)
+
+
+FORMULAS: tuple[Formula, ...] = _all_formulas()
+
+
+def _printer():  # noqa: ANN202 - sympy's printer class
+    from sympy.printing.c import C99CodePrinter
+
+    class Printer(C99CodePrinter):
+        """C99 with every float literal printed to round-trip (``repr``)."""
+
+        def _print_Float(self, expr: Any) -> str:
+            return repr(float(expr))
+
+    return Printer()
+
+
+def _function_c(f: Formula) -> str:
+    import sympy as sp
+
+    q = [sp.Symbol(f"p_{n}", real=True) for n in PARAMETER_NAMES]
+    if f.dry:
+        q[PARAMETER_NAMES.index("m")] = sp.Float(0.0)
+    x = {n: sp.Symbol(f"x_{n}", real=True) for n in f.inputs}
+    e = engine_namespace(q, bool(f.fixed))
+    g, H = q[PARAMETER_NAMES.index("g")], q[PARAMETER_NAMES.index("H")]
+    exprs = [sp.sympify(v) for v in f.build(e, g, H, x, sympy_math())]
+    if len(exprs) != len(f.outputs):
+        raise ValueError(f"{f.name}: {len(exprs)} results for {len(f.outputs)} outputs")
+    temps, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("t"))
+    pr = _printer()
+    used = set().union(*(ex.free_symbols for ex in [*reduced, *(v for _, v in temps)]))
+    lines = [f"/* {f.doc}. x: {' '.join(f.inputs) or '-'}; out: {' '.join(f.outputs)} */",
+             f"void treb_{f.name}(const double *q, const double *x, double *out)", "{"]
+    lines += [f"    const double {s} = q[{i}];" for i, s in enumerate(q)
+              if isinstance(s, sp.Symbol) and s in used]
+    lines += [f"    const double {s} = x[{i}];" for i, s in enumerate(x.values()) if s in used]
+    lines += ["    (void)q; (void)x;"]
+    lines += [f"    const double {s} = {pr.doprint(v)};" for s, v in temps]
+    lines += [f"    out[{i}] = {pr.doprint(v)};  /* {n} */"
+              for i, (n, v) in enumerate(zip(f.outputs, reduced, strict=True))]
+    return "\n".join([*lines, "}", ""])
+
+
+def generate_header() -> str:
+    """``treb_formulas.h``: the generated functions' declarations and index constants."""
+    lines = ["/* Generated by trebuchet.fmu.codegen from the model's Python: do not edit. */",
+             "#ifndef TREB_FORMULAS_H", "#define TREB_FORMULAS_H", ""]
+    lines += [f"#define TREB_Q_{n} {i}" for i, n in enumerate(PARAMETER_NAMES)]
+    lines += [f"#define TREB_NQ {len(PARAMETER_NAMES)}",
+              f"#define TREB_N_OUTPUTS {len(ANGLE_NAMES) + len(LOAD_OUTPUTS)}", ""]
+    lines += [f"#define TREB_OUT_{n} {i}" for i, n in enumerate((*ANGLE_NAMES, *LOAD_OUTPUTS))]
+    lines += [""]
+    lines += [f"void treb_{f.name}(const double *q, const double *x, double *out);"
+              for f in FORMULAS]
+    lines += ["", "#endif", ""]
+    return "\n".join(lines)
+
+
+def generate_c() -> str:
+    """``treb_formulas.c``: every :data:`FORMULAS` entry as C99."""
+    head = ["/* Generated by trebuchet.fmu.codegen from the model's Python (sympy, cse): "
+            "do not edit. */", "#include <math.h>", '#include "treb_formulas.h"',
+            "#ifndef M_PI", "#define M_PI 3.14159265358979323846", "#endif",
+            "#ifndef NAN", "#define NAN (0.0 / 0.0)", "#endif", ""]
+    return "\n".join(head) + "\n".join(_function_c(f) for f in FORMULAS)

@@ -1,0 +1,60 @@
+"""The FMU in libcosim (the Open Simulation Platform's co-simulation library, through
+libcosimpy, which loads FMUs with its own FMI Library): 1 ms steps equal the in-process
+simulator."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from trebuchet.fmu.crosscheck import reference
+from trebuchet.fmu.interface import OUTPUT_NAMES
+
+pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="the build needs gcc")
+libcosimpy = pytest.importorskip("libcosimpy")
+REL = 1e-8
+
+
+@pytest.fixture(scope="module")
+def fmu_path(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("fmu_libcosim") / "Trebuchet.fmu"
+    proc = subprocess.run([sys.executable, "-m", "trebuchet.cli", "fmu", "build", "-o",
+                           str(path)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return path
+
+
+def test_libcosim_runs_the_fmu_as_the_simulator(fmu_path):
+    from fmpy import read_model_description
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.ERROR)
+    vr = {v.name: v.valueReference for v in read_model_description(str(fmu_path)).modelVariables}
+    execution = CosimExecution.from_step_size(step_size=1_000_000)  # ns: 1 ms
+    index = execution.add_local_slave(
+        local_slave=CosimLocalSlave(fmu_path=str(fmu_path), instance_name="trebuchet"))
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer=observer)
+    reals = [vr[n] for n in OUTPUT_NAMES[1:]]
+    rows, phases = [], []
+    for _ in range(1500):
+        assert execution.step()
+        rows.append(observer.last_real_values(index, reals))
+        phases.append(observer.last_integer_values(index, [vr["phase"]])[0])
+    status = execution.status()
+    assert status.error_code == 0 and status.current_time == 1_500_000_000
+    ref = reference(1e-3 * np.arange(1, 1501), t_stop=1.5)
+    np.testing.assert_array_equal(phases, ref["phase"].to_numpy())
+    got = np.array(rows)
+    for j, name in enumerate(OUTPUT_NAMES[1:]):
+        want = ref[name].to_numpy()
+        err = np.max(np.abs(got[:, j] - want))
+        assert err <= REL * np.max(np.abs(want)), f"{name} off by {err:g}"
