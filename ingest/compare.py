@@ -407,7 +407,8 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     if isinstance(log_or_path, str | Path):  # read first: a bad log is refused before progress
         from trebuchet.ingest.logs.read_log import read_log
 
-        keys = ("fps", "columns", "points", "min_likelihood")
+        keys = ("fps", "columns", "points", "min_likelihood", "time_unit", "angle_unit",
+                "individual", "calibration")
         log_or_path = read_log(log_or_path, **{k: reconstruct_options.pop(k) for k in keys
                                                if k in reconstruct_options})
     say(f"reconstructing the loads of {name}")

@@ -56,6 +56,9 @@ from trebuchet.ingest.events.release_model import (
     scene_doubt,
 )
 from trebuchet.ingest.events.sling_continuation import continued_sling
+from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
+from trebuchet.ingest.logs.result import read_log_info
+from trebuchet.ingest.logs.scene_check import scene_check
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.smooth import (
@@ -625,7 +628,7 @@ def _smooth_again(log: pd.DataFrame, est: pd.DataFrame, options: ReconstructOpti
     return again
 
 
-def _log_frame(path_or_log, fps, columns, points, min_likelihood) -> pd.DataFrame:
+def _log_frame(path_or_log, fps, columns, points, read_options) -> pd.DataFrame:
     if isinstance(path_or_log, pd.DataFrame):
         if points is not None:
             raise TrebuchetInputError("reconstruct: points= needs a log file of point "
@@ -639,8 +642,7 @@ def _log_frame(path_or_log, fps, columns, points, min_likelihood) -> pd.DataFram
     if isinstance(path_or_log, str | Path):
         from trebuchet.ingest.logs.read_log import read_log
 
-        return read_log(path_or_log, fps=fps, columns=columns, points=points,
-                        min_likelihood=min_likelihood)
+        return read_log(path_or_log, fps=fps, columns=columns, points=points, **read_options)
     raise TrebuchetInputError("reconstruct: expected a log file path or a DataFrame, got "
                               f"{type(path_or_log).__name__}")
 
@@ -652,7 +654,9 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                 form: str | None = None, trough: str | None = None,
                 q: float | Mapping[str, float] | None = None,
                 r: float | Mapping[str, float] | None = None,
-                min_likelihood: float = 0.9,
+                min_likelihood: float = MIN_LIKELIHOOD,
+                time_unit: str | None = None, angle_unit: str | None = None,
+                individual: str | None = None, calibration: str | Path | None = None,
                 options: ReconstructOptions | None = None) -> pd.DataFrame:
     """Loads of a filmed shot with their standard deviations.
 
@@ -661,7 +665,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     path_or_log : a log file (any format :func:`~trebuchet.ingest.logs.read_log.read_log`
         reads) or a DataFrame with ``t`` (s) and ``theta``, ``psi``, ``phi`` (rad).
     scene : the engine filmed (a :class:`~trebuchet.model.scene.Scene` or a scene file).
-    fps, columns, points, min_likelihood : as for ``read_log``.
+    fps, columns, points, min_likelihood, time_unit, angle_unit, individual, calibration :
+        as for ``read_log`` (a log read from a file is then checked against the scene:
+        :func:`~trebuchet.ingest.logs.scene_check.scene_check` refuses a beam whose sweep or
+        timing is off by a factor of 57, 1000 or the frame rate).
     events : ``{"trigger", "lift_off", "release"}`` in the log's time (s), overriding
         detection; None = no such event in the log. A given time must lie inside the log
         and the given ones be ordered trigger < lift_off < release, else
@@ -701,8 +708,12 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     if changes:
         options = dataclasses.replace(options, **changes)
     scene = as_scene(scene, "reconstruct")
-    log = _log_frame(path_or_log, fps, columns, points, min_likelihood)
+    read_options = {"min_likelihood": min_likelihood, "time_unit": time_unit,
+                    "angle_unit": angle_unit, "individual": individual,
+                    "calibration": calibration}
+    log = _log_frame(path_or_log, fps, columns, points, read_options)
     source = str(log.attrs.get("source", "log"))
+    swing = scene_check(log, scene) if read_log_info(log) is not None else None
     calibrated = calibrated_log(log, scene) if options.image_calibration == "engine" else None
     if calibrated is not None:
         log = calibrated.log
@@ -750,6 +761,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                               "the release was not checked against the engine's equations "
                               f"({' and '.join(untracked)} not tracked); it comes from the "
                               "jump search alone"]
+    if swing is not None and swing.note:
+        est.attrs["notes"] = [*est.attrs.get("notes", []), swing.note]
     if calibrated is not None:
         est = widened_by_calibration(est, calibrated.common_sd)
         est.attrs["notes"] = [*est.attrs.get("notes", []), *calibrated.notes]
