@@ -37,6 +37,7 @@ import pandas as pd
 from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
 from trebuchet.ingest.geometry.points import NEEDS, point_angles, resolve_points
 from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
+from trebuchet.ingest.geometry.stuck_points import stuck_runs
 from trebuchet.ingest.logs.repairs import (
     drop_repeated_frames,
     drop_rows_without_angles,
@@ -375,6 +376,17 @@ def _from_points(
         decisions.append(decision)
         if down:
             positions = {r: (x, -y) for r, (x, y) in positions.items()}
+    for run in stuck_runs(positions):  # a tracker held on an occluder: gaps, named
+        x, y = (v.copy() for v in positions[run.point])
+        x[run.first:run.last + 1] = np.nan
+        y[run.first:run.last + 1] = np.nan
+        positions[run.point] = (x, y)
+        t0, t1 = source.t[run.first], source.t[run.last]
+        repairs.append(
+            f"{run.point} ('{chosen[run.point].label}') stands still (within {run.spread:.3g}) "
+            f"in rows {source.rows[run.first]}-{source.rows[run.last]} (t = {t0:.6g}-{t1:.6g} "
+            f"s) while the {run.reference} moves {run.moved:.3g}: the tracker is stuck "
+            "(on an occluder?); those positions are left out as gaps")
     angles = point_angles(positions)
     leaves, note = _cut_flight_from_sling(source, positions, angles)
     if note:

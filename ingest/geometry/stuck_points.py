@@ -1,0 +1,173 @@
+"""Tracked points that stand still while the engine moves: a tracker stuck on an occluder.
+
+An uncorrected template tracker that slides onto something in front of a marker (the near
+frame's leg, a post) stays there: its point stops while the beam swings on. Each point is
+tied to another by a length of the engine (:data:`PARTNERS`: spigot and hinge on the
+beam, counterweight L3 from the hinge, projectile L4 from the spigot). Over a window of
+frames, a point that is frozen (its spread, the median distance from its median, within
+the tracking noise), while its partner moves, and whose tie stretches off its median, is
+*stuck*. A point that only stands still (the counterweight at the turn of its swing) keeps
+its tie and is not. No scene is needed: the shares are of the log's own lengths, in any
+unit, and the noise is the fixed pivot's scatter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["StuckRun", "stuck_runs", "tracking_noise", "WINDOW", "STILL_SHARE"]
+
+#: Frames in the sliding window (a stuck run shorter than this is not found).
+WINDOW = 10
+#: A point is frozen where its spread is at most this many noise sd plus
+#: :data:`STILL_SHARE` of the beam's length...
+NOISE_SPREADS = 3.0
+STILL_SHARE = 0.001
+#: ...while its partner's spread exceeds :data:`MOVING_RATIO` times its own and the
+#: frozen limit (the tie's stretch is the evidence that they move apart).
+MOVING_RATIO = 2.0
+
+
+@dataclass(frozen=True)
+class StuckRun:
+    """Frames ``first``..``last`` (indices into the log, inclusive) where ``point`` stood
+    still while ``reference`` moved; ``spread`` and ``moved``: the largest of their windows'
+    spreads over the run (the file's unit)."""
+
+    point: str
+    reference: str
+    first: int
+    last: int
+    spread: float
+    moved: float
+
+
+def _spread(xy: np.ndarray, lo: int, hi: int) -> float:
+    """Median distance of the finite positions ``xy[lo:hi]`` from their median (robust to a
+    mislocated position or two; NaN if fewer than half are finite)."""
+    w = xy[lo:hi]
+    ok = np.isfinite(w).all(axis=1)
+    if ok.sum() < max(2, (hi - lo) // 2):
+        return float("nan")
+    d = w[ok] - np.median(w[ok], axis=0)
+    return float(np.median(np.hypot(d[:, 0], d[:, 1])))
+
+
+def tracking_noise(pivot: np.ndarray) -> float:
+    """Robust sd per coordinate (file units) of the fixed pivot's scatter about its median:
+    the tracker's noise on a still marker (0 for a tracker that finds it the same way in
+    every frame)."""
+    ok = np.isfinite(pivot).all(axis=1)
+    if ok.sum() < 3:
+        return 0.0
+    d = pivot[ok] - np.median(pivot[ok], axis=0)
+    return float(np.median(np.hypot(d[:, 0], d[:, 1]))) / float(np.sqrt(2.0 * np.log(2.0)))
+
+
+def _held(xy: np.ndarray, first: int, last: int, tol: float) -> tuple[int, int]:
+    """The run ``first``..``last`` trimmed to the frames where the point stands where it
+    stood (within ``tol``; the windows that found it overlap its ends), then grown over the
+    neighbouring frames where it still does (gaps skipped): the tie stretches only as the
+    partner moves away, so the frozen stretch often starts earlier than the broken tie."""
+    here = np.nanmedian(xy[first:last + 1], axis=0)
+
+    def at(k: int) -> bool | None:
+        if not np.isfinite(xy[k]).all():
+            return None
+        return bool(np.hypot(*(xy[k] - here)) <= tol)
+
+    while first < last and at(first) is False:  # the windows overlap the run's ends
+        first += 1
+    while last > first and at(last) is False:
+        last -= 1
+    k = first - 1
+    while k >= 0 and at(k) is not False:
+        k -= 1
+    first = k + 1
+    k = last + 1
+    while k < xy.shape[0] and at(k) is not False:
+        k += 1
+    return first, k - 1
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) of the runs of True."""
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.r_[idx[0], idx[cuts + 1]]
+    ends = np.r_[idx[cuts], idx[-1]]
+    return list(zip(starts.tolist(), ends.tolist(), strict=True))
+
+
+#: Each point and the one it is rigidly tied to: beam (spigot and hinge), arm L3, sling L4.
+PARTNERS = (("hinge", "spigot"), ("spigot", "hinge"), ("counterweight", "hinge"),
+            ("projectile", "spigot"))
+#: The tie is broken where it leaves its median by this share of its size (and 5 noise sd).
+TIE_SHARE = 0.05
+
+
+def _tie(xy: dict[str, np.ndarray], point: str, ref: str) -> tuple[np.ndarray, float]:
+    """The quantity the engine keeps constant between ``point`` and ``ref`` per frame, and its
+    size (file units): on the beam, the hinge's distance from the line pivot-spigot (0 on a
+    straight beam; a point frozen while the beam turns bends it); else their distance."""
+    if {point, ref} == {"hinge", "spigot"}:
+        arm = xy["spigot"] - xy["pivot"]
+        short = xy["hinge"] - xy["pivot"]
+        length = np.hypot(arm[:, 0], arm[:, 1])
+        bend = (arm[:, 0] * short[:, 1] - arm[:, 1] * short[:, 0]) / length
+        return bend, float(np.nanmedian(np.hypot(short[:, 0], short[:, 1])))
+    d = np.hypot(*(xy[point] - xy[ref]).T)
+    return d, float(np.nanmedian(d))
+
+
+def stuck_runs(positions: dict[str, tuple[np.ndarray, np.ndarray]],
+               window: int = WINDOW) -> list[StuckRun]:
+    """Runs of frames where a tracked point stands still while the point it is tied to
+    moves, and their distance (a length of the engine) breaks.
+
+    ``positions``: ``{role: (x, y)}`` in the file's unit (``pivot`` and ``spigot`` needed,
+    others optional), NaN in gaps. A point may stand still by itself (the counterweight at
+    the turn of its swing), but not while its tie to a moving point stretches: that needs
+    both.
+    """
+    if "pivot" not in positions or "spigot" not in positions:
+        return []
+    xy = {r: np.column_stack(p).astype(float) for r, p in positions.items()}
+    arm = xy["spigot"] - xy["pivot"]
+    beam = float(np.nanmedian(np.hypot(arm[:, 0], arm[:, 1])))
+    if not np.isfinite(beam) or beam <= 0:
+        return []
+    n = arm.shape[0]
+    sigma = tracking_noise(xy["pivot"])
+    found = []
+    for point, ref in PARTNERS:
+        if point not in xy or ref not in xy:
+            continue
+        d, size = _tie(xy, point, ref)
+        tie = float(np.nanmedian(d))
+        broken = np.abs(d - tie) > max(5.0 * sigma, TIE_SHARE * size)
+        stuck = np.zeros(n, bool)
+        spreads = np.full(n, np.nan)
+        moves = np.full(n, np.nan)
+        for lo in range(0, n - window + 1):
+            hi = lo + window
+            s, m = _spread(xy[point], lo, hi), _spread(xy[ref], lo, hi)
+            if not (np.isfinite(s) and np.isfinite(m)):
+                continue
+            still = s <= NOISE_SPREADS * sigma + STILL_SHARE * beam
+            moving = m > max(MOVING_RATIO * s, NOISE_SPREADS * sigma + STILL_SHARE * beam)
+            if moving and still and np.nanmean(broken[lo:hi]) >= 0.5:
+                stuck[lo:hi] = True
+                spreads[lo:hi] = np.fmax(spreads[lo:hi], s)
+                moves[lo:hi] = np.fmax(moves[lo:hi], m)
+        for first, last in _runs(stuck):
+            first, last = _held(xy[point], first, last,
+                                NOISE_SPREADS * sigma + STILL_SHARE * beam)
+            found.append(StuckRun(point, ref, first, last,
+                                  float(np.nanmax(spreads[first:last + 1])),
+                                  float(np.nanmax(moves[first:last + 1]))))
+    return found

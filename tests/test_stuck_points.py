@@ -1,0 +1,65 @@
+"""A tracker stuck on an occluder (issue 15): a point that stands still while the engine
+moves is named and left out, and nothing else is."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from tests.exports.deeplabcut import POINTS, single_frame, tracked
+from trebuchet.ingest.geometry.stuck_points import stuck_runs
+from trebuchet.ingest.logs.read_log import read_log
+from trebuchet.ingest.synthetic.filmed_points import simulated_plane_track
+
+ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
+
+
+@pytest.fixture(scope="module")
+def shot(horsdal):
+    return simulated_plane_track(horsdal, 120.0, rest=0.3)
+
+
+def _positions(shot, noise=0.005, seed=0):
+    rng = np.random.default_rng(seed)
+    out = {}
+    for role in ROLES:
+        xy = shot.points[role] + rng.normal(0.0, noise, shot.points[role].shape)
+        out[role] = (xy[:, 0], xy[:, 1])
+    return out
+
+
+def test_a_clean_track_has_no_stuck_point(shot):
+    assert stuck_runs(_positions(shot)) == []
+
+
+@pytest.mark.parametrize("role", ["counterweight", "hinge", "projectile", "spigot"])
+def test_a_point_held_in_place_mid_shot_is_found(shot, role):
+    pos = _positions(shot)
+    moving = np.flatnonzero(shot.t > 0.5)[:30]  # the beam swings, the stone in the sling
+    x, y = (v.copy() for v in pos[role])
+    x[moving], y[moving] = x[moving[0]], y[moving[0]]
+    pos[role] = (x, y)
+    runs = stuck_runs(pos)
+    assert [r.point for r in runs] == [role]
+    run = runs[0]
+    assert run.first <= moving[0] + 1 and run.last >= moving[-1] - 1
+    assert run.last - run.first < moving.size + 8
+
+
+def test_read_log_names_a_stuck_counterweight_and_leaves_it_out(tmp_path):
+    """A DeepLabCut file whose counterweight sticks for 40 frames during the swing."""
+    frames, table, t, _ = tracked("stuck", 240.0)
+    moving = np.arange(len(t) // 2 - 20, len(t) // 2 + 20)  # mid-swing
+    cw = table["counterweight"]
+    cw[moving, :2] = cw[moving[0], :2]
+    path = tmp_path / "held.csv"
+    single_frame(table, len(frames)).to_csv(path)
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        log = read_log(path, fps=240.0, points=POINTS)
+    notes = [str(w.message) for w in record if "tracker is stuck" in str(w.message)]
+    assert len(notes) == 1 and "counterweight ('weight')" in notes[0]
+    assert np.isnan(log["psi"].to_numpy()[moving[2:-2]]).all()
+    assert np.isfinite(log["theta"].to_numpy()[moving]).all()
