@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["COVERED", "frame_index", "shot_scores", "angle_errors"]
+__all__ = ["COVERED", "frame_index", "shot_scores", "angle_errors", "tracking_scores"]
 
 #: Components whose ±2 sd band coverage is scored, and the phases over which.
 COVERED = {"F_R_x": (1, 2, 3), "F_R_y": (1, 2, 3), "F_S_x": (1, 2), "F_S_y": (1, 2)}
@@ -85,3 +85,18 @@ def shot_scores(result: pd.DataFrame, truth: pd.DataFrame, fps: float) -> dict[s
         out[f"{col}_cover"] = float(100.0 * inside.mean()) if ok.any() else np.nan
     out["rows"] = float(100.0 * shot.sum() / max(int(true_shot.sum()), 1))
     return out
+
+
+def tracking_scores(positions: np.ndarray, scores: np.ndarray, true_px: np.ndarray,
+                    phase: np.ndarray, min_likelihood: float = 0.9) -> dict[str, float]:
+    """How the tracker did, judged after the fact against the true pixels ``true_px`` ((n, 5,
+    2)) while the sling holds the stone (``phase`` ≤ 2): ``track_px``, the median error (px)
+    of the positions kept (score ≥ ``min_likelihood``); ``lost_pct``, % of point-frames below
+    it (gaps for the reader); ``wrong_pct``, % kept but more than 3 px off (a stuck or
+    slid track the reader cannot see)."""
+    held = phase <= 2
+    err = np.linalg.norm(positions[held] - true_px[held], axis=-1)
+    kept = scores[held] >= min_likelihood
+    return {"track_px": float(np.nanmedian(err[kept])) if kept.any() else np.nan,
+            "lost_pct": float(100.0 * (~kept).mean()),
+            "wrong_pct": float(100.0 * (kept & (err > 3.0)).mean())}

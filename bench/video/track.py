@@ -82,9 +82,10 @@ class _Point:
 
 def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: float,
                  settings: TrackerSettings = TrackerSettings()) -> tuple[np.ndarray, np.ndarray]:
-    """Positions (px, (n_frames, k, 2), u right, v down; NaN where the search window left the
-    image) and scores ((n_frames, k), the peak correlation, 0 where lost off the image) of
-    ``k`` points clicked at ``clicks`` (px, (k, 2)) on the first frame."""
+    """Positions (px, (n_frames, k, 2), u right, v down) and scores ((n_frames, k), the peak
+    correlation) of ``k`` points clicked at ``clicks`` (px, (k, 2)) on the first frame. Where
+    the search window leaves the image the position is the prediction clipped to the image
+    and the score 0 (a tracker always reports a position, as DeepLabCut does)."""
     half = template_half_size(marker_px)
     mask = template_mask(half, marker_px)
     points: list[_Point] = []
@@ -106,8 +107,9 @@ def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: fl
         score = np.zeros(len(points))
         for i, p in enumerate(points):
             found = _search(image, p, half, mask, settings)
-            if found is None:
+            if found is None:  # off the image: report the prediction, score 0
                 p.last = p.last + p.velocity
+                here[i] = np.clip(p.last, 0.0, np.array(image.shape[::-1]) - 1.0)
                 continue
             here[i], score[i] = found
             if score[i] >= settings.lost_score:
