@@ -147,3 +147,12 @@ def test_tracked_shot_end_to_end(tmp_path):
     assert log.attrs["format"] == "deeplabcut" and len(log) > 20
     assert np.nanmax(np.abs(np.rad2deg(log["theta"] - shot.truth["theta"].to_numpy()[:len(log)]))
                      ) < 5.0
+
+
+def test_shipped_video_sample_reads_with_its_scene():
+    log = _read("data_samples/video_tilted_dlc.csv", fps=120.0)
+    assert log.attrs["format"] == "deeplabcut"
+    assert log.attrs["point_names"] == {p: p for p in POINTS}
+    assert log["t"].iloc[0] == 0.0 and log.attrs["frame"][-1] == 263
+    scene = tb.Scene.from_toml("data_samples/video_tilted.toml")
+    assert scene == tb.Scene.from_toml("data_samples/horsdal_large.toml")

@@ -11,7 +11,8 @@ frames (the truth's phase ≥ 1):
   where none was found);
 - ``<X>_cover``: % of frames whose truth lies within ±2 sd (``X_sd``) for F_R_x, F_R_y
   (shot frames) and F_S_x, F_S_y (phases 1–2: after the release both are exactly 0);
-- ``rows``: % of the shot's frames the reconstruction has.
+- ``rows``: % of the shot's frames where the reconstruction has |F_R| (rows the reader
+  dropped, or after a track's end, have none).
 """
 
 from __future__ import annotations
@@ -83,7 +84,8 @@ def shot_scores(result: pd.DataFrame, truth: pd.DataFrame, fps: float) -> dict[s
         ok = np.isfinite(est) & np.isfinite(sd)
         inside = np.abs(est[ok] - true[ok]) <= 2.0 * sd[ok]
         out[f"{col}_cover"] = float(100.0 * inside.mean()) if ok.any() else np.nan
-    out["rows"] = float(100.0 * shot.sum() / max(int(true_shot.sum()), 1))
+    has = shot & np.isfinite(m["F_R_abs"].to_numpy())
+    out["rows"] = float(100.0 * has.sum() / max(int(true_shot.sum()), 1))
     return out
 
 
