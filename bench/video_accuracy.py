@@ -23,7 +23,9 @@ reconstruct; ``misses``: the issue's targets missed (FR: |F_R| RMS ≤ 3 %, peak
 FS: |F_S| RMS ≤ 10 %; release: within 2 frames at 240 fps, 3 at 120; lift: within 2
 frames; cover: every band 85–99 %).
 
-``python bench/video_accuracy.py [out_dir] [--full] [--seeds 0,1] [--workers 2]``.
+``python -m bench video_accuracy`` (default grid, into ``bench/results``) or
+``python bench/video_accuracy.py [out_dir] [--full] [--seeds 0,1] [--workers 2] [--runs
+FILE]``.
 """
 
 from __future__ import annotations
@@ -186,9 +188,9 @@ def summary(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def run(out_dir: Path, cells: list[Cell] | None = None, seeds: tuple[int, ...] = SEEDS,
-        workers: int = 2) -> pd.DataFrame:
-    """Run the grid; write ``video_accuracy_runs.csv`` and ``video_accuracy.csv``; return the
-    summary (``attrs["notes"]`` for the Markdown table)."""
+        workers: int = 2, runs_csv: Path | None = None) -> pd.DataFrame:
+    """Run the grid; write ``video_accuracy.csv`` (and every run to ``runs_csv`` if given);
+    return the summary (``attrs["notes"]`` for the Markdown table)."""
     cells = default_cells() if cells is None else cells
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -201,7 +203,8 @@ def run(out_dir: Path, cells: list[Cell] | None = None, seeds: tuple[int, ...] =
         else:
             rows = [run_one(*j) for j in jobs]
     runs = pd.DataFrame(rows)
-    runs.to_csv(out_dir / "video_accuracy_runs.csv", index=False)
+    if runs_csv is not None:
+        runs.to_csv(runs_csv, index=False)
     table = summary(runs)
     table.to_csv(out_dir / "video_accuracy.csv", index=False)
     shown = table.drop(columns=["occluders", "fmt", "tracker"])
@@ -230,10 +233,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--full", action="store_true", help="the factorial grid (long)")
     ap.add_argument("--seeds", default=",".join(map(str, SEEDS)))
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--runs", type=Path, help="also write every run (not averaged) here")
     args = ap.parse_args(argv)
     seeds = tuple(int(s) for s in args.seeds.split(","))
     args.out_dir.mkdir(parents=True, exist_ok=True)
-    table = run(args.out_dir, full_cells() if args.full else None, seeds, args.workers)
+    table = run(args.out_dir, full_cells() if args.full else None, seeds, args.workers,
+                args.runs)
     for n in table.attrs["notes"]:
         print(f"- {n}")
     with pd.option_context("display.width", 250, "display.max_columns", 40):
