@@ -8,7 +8,10 @@ brace) in front of everything, nearer the camera than the engine's plane. Moving
 drawn at ``n_sub`` instants inside the exposure and averaged (motion blur); the frame is
 then blurred by a Gaussian (the lens, sd in px) and gets Gaussian noise (the sensor, sd in
 grey levels) before rounding to 8 bits. Drawing uses OpenCV's anti-aliased primitives at
-1/16 px, into the region each frame's moving parts cover.
+1/16 px, into the region each frame's moving parts cover. Points and the frame members
+go through the full camera model (pose, distortion); the markers, beam and counterweight
+are drawn as disks and lines at the scale (px per m) of the pivot, not reshaped by
+perspective or distortion (a few per cent across the image).
 """
 
 from __future__ import annotations
