@@ -73,14 +73,15 @@ def look_for(scene: tb.Scene) -> Look:
 
 def frame_members(scene: tb.Scene) -> tuple[Member, ...]:
     """The near frame's two legs, from the ground (±0.6 H) up to 3 marker radii below the
-    pivot, and a brace between them at 0.3 H, all 0.1 (L1 + L4) nearer the camera than the
+    pivot, and a brace between them at 0.5 H (the counterweight crosses it on its way down,
+    and hangs below it after the shot), all 0.1 (L1 + L4) nearer the camera than the
     engine and 1.8 % of L1 + L4 wide."""
     e, H = scene.engine, scene.start.H
     size = e.L1 + e.L4
     top = H - 3 * 0.015 * size
     width, z = 0.018 * size, 0.1 * size
     foot = 0.6 * H
-    brace_y = 0.3 * H
+    brace_y = 0.5 * H
     brace_x = foot * (1.0 - brace_y / H)
     return (Member((-foot, 0.0), (-0.05 * H, top), width, z),
             Member((foot, 0.0), (0.05 * H, top), width, z),

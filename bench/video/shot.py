@@ -86,7 +86,7 @@ def tracked_shot(scene: tb.Scene, camera: Camera | Pose, fps: float, shutter: fl
                  out_dir: str | Path, fmt: str = "deeplabcut",
                  tracker: TrackerSettings | None = None, look: Look | None = None,
                  rest: float = 0.3, after: float = 0.3, click_sd_px: float = 0.25,
-                 name: str | None = None) -> TrackedShot:
+                 kinovea_min_score: float = 0.9, name: str | None = None) -> TrackedShot:
     """Render, track and export one shot.
 
     ``scene``: the engine; ``camera``: a :class:`~.camera.Camera` or a :class:`Pose` (then
@@ -95,7 +95,9 @@ def tracked_shot(scene: tb.Scene, camera: Camera | Pose, fps: float, shutter: fl
     the members; ``seed``: background texture, sensor noise and the user's clicks (sd
     ``click_sd_px`` px around the true first-frame positions: the only use of the truth
     after rendering); ``out_dir``: where the file goes (``name`` or a name made of the
-    settings, ``.csv``); ``fmt``: "deeplabcut" or "kinovea"; ``rest``, ``after``: s filmed
+    settings, ``.csv``); ``fmt``: "deeplabcut" (every position, likelihood = the match
+    score) or "kinovea" (positions scoring below ``kinovea_min_score`` left empty, as a
+    careful user deletes the points a tracker was unsure of); ``rest``, ``after``: s filmed
     before the trigger and after the release.
     """
     if fmt not in FORMATS:
@@ -130,7 +132,7 @@ def tracked_shot(scene: tb.Scene, camera: Camera | Pose, fps: float, shutter: fl
     else:
         m_per_px = scene.engine.L1 / float(np.linalg.norm(clicks[1] - clicks[0]))
         coords = kinovea_coordinates(positions, clicks[0], m_per_px)
-        coords[scores < tracker.lost_score] = np.nan
+        coords[scores < kinovea_min_score] = np.nan
         write_kinovea(path, KINOVEA_NAMES, t, coords)
         read = {"fps": fps, "points": {p: n for p, n in zip(POINTS, KINOVEA_NAMES, strict=True)}}
     return TrackedShot(path=path, fmt=fmt, read=read, truth=truth, camera=camera,

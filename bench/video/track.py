@@ -3,7 +3,7 @@
 The user clicks each marker on the first frame only (``clicks``, px); that is the one time
 the truth is read. From then on each point is found by normalised cross-correlation
 (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``) of the template cut around the click
-(masked to a disk: the marker's ring and a thin band around it), in a
+(masked to the disk of the ringed marker), in a
 search window around a constant-velocity prediction from the last two good positions, with
 a parabolic sub-pixel peak. The peak's correlation is the position's score (DeepLabCut's
 likelihood in the export). Below ``lost_score`` the point is taken as lost for that frame:
@@ -28,12 +28,17 @@ __all__ = ["TrackerSettings", "track_points", "template_half_size", "template_ma
 @dataclass(frozen=True)
 class TrackerSettings:
     """``search_px``: search radius (px) around the prediction, plus ``speed_factor`` × the
-    last step (px per frame); ``lost_score``: below it the point is lost this frame;
+    last step (px per frame), widened by ``search_px`` for every frame the point has been
+    lost, up to ``max_search_px`` and to half the distance between the point and its nearest
+    neighbour on the first frame (the markers look alike: a careful user never lets a
+    lost point's window reach another marker); ``lost_score``: below it the point is lost
+    this frame;
     ``update_rate``: blend of a good match into the template (0: the clicked template
     only); ``update_score``: a match good enough to update the template."""
 
     search_px: float = 6.0
     speed_factor: float = 0.75
+    max_search_px: float = 60.0
     lost_score: float = 0.6
     update_rate: float = 0.0
     update_score: float = 0.8
@@ -46,12 +51,12 @@ def template_half_size(marker_px: float) -> int:
 
 
 def template_mask(half: int, marker_px: float) -> np.ndarray:
-    """Disk mask (float32, 1 inside) of the template: the ring and 1.5 px around it, so that
-    the beam or sling crossing the template's corners does not count (the match does not
-    change as they turn)."""
+    """Disk mask (float32, 1 inside) of the template: the ringed marker to its anti-aliased
+    edge (0.5 px beyond the ring), so that the beam or sling leaving the marker does not count
+    (the match does not change as they turn)."""
     size = 2 * half + 1
     mask = np.zeros((size, size), np.float32)
-    radius = min(1.5 * marker_px + 1.5, half + 0.5)
+    radius = min(1.5 * marker_px + 0.5, half + 0.5)
     cv2.circle(mask, (half * 16, half * 16), int(round(radius * 16)), 1.0, -1, cv2.LINE_8, 4)
     return mask
 
@@ -76,8 +81,15 @@ class _Point:
 
     template: np.ndarray
     offset: np.ndarray  # click minus the template's centre pixel, px
-    last: np.ndarray
-    velocity: np.ndarray
+    good: np.ndarray  # last good position, px
+    velocity: np.ndarray  # px per frame
+    widest: float  # largest search radius while lost, px
+    lost: int = 0  # frames since the last good match
+
+    @property
+    def prediction(self) -> np.ndarray:
+        """Where the point should be in the next frame (constant velocity), px."""
+        return self.good + self.velocity * (self.lost + 1)
 
 
 def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: float,
@@ -94,12 +106,16 @@ def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: fl
     for n, frame in enumerate(frames):
         image = frame.astype(np.float32)
         if n == 0:
-            for c in np.asarray(clicks, dtype=float):
+            clicked = np.asarray(clicks, dtype=float)
+            gaps = np.linalg.norm(clicked[:, None] - clicked[None], axis=-1)
+            np.fill_diagonal(gaps, np.inf)
+            for c, gap in zip(clicked, gaps.min(axis=1), strict=True):
                 centre = np.round(c).astype(int)
                 patch = _patch(image, centre, half)
                 if patch is None:
                     raise ValueError(f"click {c} too near the image's edge for a template")
-                points.append(_Point(patch, c - centre, c.copy(), np.zeros(2)))
+                widest = min(settings.max_search_px, 0.5 * float(gap))
+                points.append(_Point(patch, c - centre, c.copy(), np.zeros(2), widest))
             positions.append(np.asarray(clicks, dtype=float).copy())
             scores.append(np.ones(len(points)))
             continue
@@ -108,20 +124,21 @@ def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: fl
         for i, p in enumerate(points):
             found = _search(image, p, half, mask, settings)
             if found is None:  # off the image: report the prediction, score 0
-                p.last = p.last + p.velocity
-                here[i] = np.clip(p.last, 0.0, np.array(image.shape[::-1]) - 1.0)
+                here[i] = np.clip(p.prediction, 0.0, np.array(image.shape[::-1]) - 1.0)
+                p.lost += 1
                 continue
             here[i], score[i] = found
             if score[i] >= settings.lost_score:
-                p.velocity = here[i] - p.last
-                p.last = here[i]
+                p.velocity = (here[i] - p.good) / (p.lost + 1)
+                p.good = here[i]
+                p.lost = 0
                 if settings.update_rate > 0 and score[i] >= settings.update_score:
                     patch = _patch(image, np.round(here[i] - p.offset).astype(int), half)
                     if patch is not None:
                         p.template = ((1 - settings.update_rate) * p.template
                                       + settings.update_rate * patch)
             else:
-                p.last = p.last + p.velocity
+                p.lost += 1
         positions.append(here)
         scores.append(score)
     return np.array(positions), np.array(scores)
@@ -140,10 +157,11 @@ def _search(image: np.ndarray, p: _Point, half: int, mask: np.ndarray,
             settings: TrackerSettings) -> tuple[np.ndarray, float] | None:
     """Best match (px) and its score around the point's prediction, None if the window
     holds no whole template."""
-    guess = p.last + p.velocity
+    guess = p.prediction
     if not np.isfinite(guess).all():
         return None
-    radius = settings.search_px + settings.speed_factor * float(np.linalg.norm(p.velocity))
+    base = settings.search_px + settings.speed_factor * float(np.linalg.norm(p.velocity))
+    radius = min(base + settings.search_px * p.lost, max(base, p.widest))
     h, w = image.shape
     centre = np.round(guess - p.offset).astype(int)
     r = int(np.ceil(radius))
