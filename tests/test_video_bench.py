@@ -18,7 +18,12 @@ from bench.video.camera import (
     rotation,
     undistort_pixels,
 )
-from bench.video.export import kinovea_coordinates, write_deeplabcut, write_kinovea
+from bench.video.export import (
+    kinovea_coordinates,
+    kinovea_time,
+    write_deeplabcut,
+    write_kinovea,
+)
 from bench.video.shot import KINOVEA_NAMES, Pose, tracked_shot
 from bench.video.track import TrackerSettings, track_points
 from bench.video.truth import POINTS, Filming, engine_points, frame_times, truth_table
@@ -108,7 +113,8 @@ def test_kinovea_export_is_read_back(tmp_path, backyard_truth):
     cam = camera_framing((-4.0, 0.0, 4.0, 5.0), 6.6)
     uv = project(cam, points)
     coords = kinovea_coordinates(uv, uv[0, 0], 0.01)
-    path = write_kinovea(tmp_path / "shot.csv", KINOVEA_NAMES, truth["t"].to_numpy(), coords)
+    path = write_kinovea(tmp_path / "shot.csv", KINOVEA_NAMES, truth["t"].to_numpy(), coords,
+                         120.0)
     raw = path.read_bytes()
     assert raw.startswith(b'"Time","Beam/pivot/X","Beam/pivot/Y"') and b"\r\n" in raw
     points_map = dict(zip(POINTS, KINOVEA_NAMES, strict=True))
@@ -116,8 +122,16 @@ def test_kinovea_export_is_read_back(tmp_path, backyard_truth):
     assert log.attrs["format"] == "kinovea"
     assert log.attrs["point_names"] == points_map
     np.testing.assert_allclose(log["t"], truth["t"], atol=1e-9)
-    for a in ("theta", "psi"):  # 32-bit floats: about 1e-7 of the coordinates
+    for a in ("theta", "psi"):  # 7 significant digits: about 1e-7 of the coordinates
         np.testing.assert_allclose(log[a], truth[a], atol=1e-5)
+
+
+def test_kinovea_time_columns_follow_the_time_code():
+    t = np.arange(4) / 120.0
+    assert list(kinovea_time(t, 120.0, "ms")) == [0.0, 8.0, 17.0, 25.0]
+    assert list(kinovea_time(t, 120.0, "classic")) == [0.0, 0.008, 0.017, 0.025]
+    assert kinovea_time(t, 120.0, "milliseconds")[1] == pytest.approx(1000 / 120)
+    assert list(kinovea_time(t, 120.0, "frames")) == [0.0, 1.0, 2.0, 3.0]
 
 
 def _moving_disk(n: int, start: tuple[float, float], step: tuple[float, float]):

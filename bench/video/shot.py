@@ -27,7 +27,9 @@ from .truth import POINTS, Filming, engine_points, exposed_points, frame_times, 
 __all__ = ["Pose", "TrackedShot", "FORMATS", "KINOVEA_NAMES", "swept_box", "camera_for",
            "tracked_shot"]
 
-FORMATS = ("deeplabcut", "kinovea")
+#: Export formats: DeepLabCut, and Kinovea with each of its time columns
+#: (:data:`~.export.KINOVEA_TIMES`; "kinovea" is whole milliseconds).
+FORMATS = ("deeplabcut", "kinovea", "kinovea-classic", "kinovea-milliseconds", "kinovea-frames")
 
 #: Kinovea point names (object/point) of :data:`truth.POINTS`.
 KINOVEA_NAMES = ("Beam/pivot", "Beam/spigot", "Beam/hinge", "Weight/counterweight",
@@ -96,9 +98,10 @@ def tracked_shot(scene: tb.Scene, camera: Camera | Pose, fps: float, shutter: fl
     ``click_sd_px`` px around the true first-frame positions: the only use of the truth
     after rendering); ``out_dir``: where the file goes (``name`` or a name made of the
     settings, ``.csv``); ``fmt``: "deeplabcut" (every position, likelihood = the match
-    score) or "kinovea" (positions scoring below ``kinovea_min_score`` left empty, as a
-    careful user deletes the points a tracker was unsure of); ``rest``, ``after``: s filmed
-    before the trigger and after the release.
+    score) or "kinovea[-<time>]" (positions scoring below ``kinovea_min_score`` left empty,
+    as a careful user deletes the points a tracker was unsure of; the time column in whole
+    ms, or as Kinovea's time-code preference ``<time>`` writes it, :data:`FORMATS`);
+    ``rest``, ``after``: s filmed before the trigger and after the release.
     """
     if fmt not in FORMATS:
         raise ValueError(f"fmt must be one of {FORMATS}, not {fmt!r}")
@@ -133,7 +136,8 @@ def tracked_shot(scene: tb.Scene, camera: Camera | Pose, fps: float, shutter: fl
         m_per_px = scene.engine.L1 / float(np.linalg.norm(clicks[1] - clicks[0]))
         coords = kinovea_coordinates(positions, clicks[0], m_per_px)
         coords[scores < kinovea_min_score] = np.nan
-        write_kinovea(path, KINOVEA_NAMES, t, coords)
+        time_format = fmt.partition("-")[2] or "ms"
+        write_kinovea(path, KINOVEA_NAMES, t, coords, fps, time_format)
         read = {"fps": fps, "points": {p: n for p, n in zip(POINTS, KINOVEA_NAMES, strict=True)}}
     return TrackedShot(path=path, fmt=fmt, read=read, truth=truth, camera=camera,
                        positions=positions, scores=scores, clicks=clicks,
