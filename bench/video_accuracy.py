@@ -36,7 +36,6 @@ import dataclasses
 import sys
 import tempfile
 import time
-import traceback
 import warnings
 import zlib
 from concurrent.futures import ProcessPoolExecutor
@@ -152,7 +151,7 @@ def run_one(cell: Cell, seed: int, folder: str) -> dict:
         out |= {"video_s": shot.seconds, "reconstruct_s": seconds, "error": ""}
     except Exception as exc:  # a failure is a result of the bench, not its end
         out["error"] = f"{type(exc).__name__}: {exc}"[:300]
-        traceback.print_exc()
+        print(f"{cell.engine}, {cell.change}, seed {seed}: {out['error']}", file=sys.stderr)
     return out
 
 

@@ -8,7 +8,9 @@ search window around a constant-velocity prediction from the last two good posit
 a parabolic sub-pixel peak. The peak's correlation is the position's score (DeepLabCut's
 likelihood in the export). Below ``lost_score`` the point is taken as lost for that frame:
 its reported position is the best match anyway (as a tracker reports one), but the next
-search starts from the prediction, coasting on the last velocity. With ``update_rate > 0``
+search starts from the prediction, coasting on the last velocity for a few frames, in a
+window that widens frame by frame; no match is taken on top of another tracked marker
+(they look alike). With ``update_rate > 0``
 the template drifts toward each good match (Kinovea-like adaptive tracking: it follows
 motion blur, and can slide onto an occluding member and stay there).
 """
@@ -75,6 +77,11 @@ def peak_offset(scores: np.ndarray, i: int, j: int) -> tuple[float, float]:
     return dx, dy
 
 
+#: Frames a lost point's prediction is carried on at its last velocity; beyond them the
+#: search widens around that prediction instead of drifting on.
+COAST_FRAMES = 3
+
+
 @dataclass
 class _Point:
     """Tracking state of one point (mutable, private to :func:`track_points`)."""
@@ -88,8 +95,9 @@ class _Point:
 
     @property
     def prediction(self) -> np.ndarray:
-        """Where the point should be in the next frame (constant velocity), px."""
-        return self.good + self.velocity * (self.lost + 1)
+        """Where the point should be in the next frame (constant velocity, extrapolated over
+        at most :data:`COAST_FRAMES` frames since the last good match), px."""
+        return self.good + self.velocity * min(self.lost + 1, COAST_FRAMES)
 
 
 def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: float,
@@ -122,7 +130,8 @@ def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: fl
         here = np.full((len(points), 2), np.nan)
         score = np.zeros(len(points))
         for i, p in enumerate(points):
-            found = _search(image, p, half, mask, settings)
+            others = np.array([q.good for q in points if q is not p])
+            found = _search(image, p, half, mask, settings, others, 3.0 * marker_px)
             if found is None:  # off the image: report the prediction, score 0
                 here[i] = np.clip(p.prediction, 0.0, np.array(image.shape[::-1]) - 1.0)
                 p.lost += 1
@@ -154,9 +163,11 @@ def _patch(image: np.ndarray, centre: np.ndarray, half: int) -> np.ndarray | Non
 
 
 def _search(image: np.ndarray, p: _Point, half: int, mask: np.ndarray,
-            settings: TrackerSettings) -> tuple[np.ndarray, float] | None:
+            settings: TrackerSettings, others: np.ndarray,
+            keep_off: float) -> tuple[np.ndarray, float] | None:
     """Best match (px) and its score around the point's prediction, None if the window
-    holds no whole template."""
+    holds no whole template. Matches within ``keep_off`` px of the other points' last good
+    positions (``others``, (m, 2)) are not taken: the markers look alike."""
     guess = p.prediction
     if not np.isfinite(guess).all():
         return None
@@ -172,6 +183,12 @@ def _search(image: np.ndarray, p: _Point, half: int, mask: np.ndarray,
     result = cv2.matchTemplate(image[y0:y1, x0:x1], p.template.astype(np.float32),
                                cv2.TM_CCOEFF_NORMED, mask=mask)
     result = np.nan_to_num(result, nan=-1.0, posinf=-1.0, neginf=-1.0)
+    if len(others):
+        cols = x0 + half + p.offset[0] + np.arange(result.shape[1])
+        rows = y0 + half + p.offset[1] + np.arange(result.shape[0])
+        for o in others:
+            near = (rows[:, None] - o[1]) ** 2 + (cols[None, :] - o[0]) ** 2 < keep_off**2
+            result[near] = -1.0
     _, best, _, (j, i) = cv2.minMaxLoc(result)
     dx, dy = peak_offset(result, i, j)
     position = np.array([x0 + j + half + dx, y0 + i + half + dy]) + p.offset
