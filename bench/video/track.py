@@ -8,11 +8,11 @@ search window around a constant-velocity prediction from the last two good posit
 a parabolic sub-pixel peak. The peak's correlation is the position's score (DeepLabCut's
 likelihood in the export). Below ``lost_score`` the point is taken as lost for that frame:
 its reported position is the best match anyway (as a tracker reports one), but the next
-search starts from the prediction, coasting on the last velocity for a few frames, in a
-window that widens frame by frame; no match is taken on top of another tracked marker
-(they look alike). With ``update_rate > 0``
-the template drifts toward each good match (Kinovea-like adaptive tracking: it follows
-motion blur, and can slide onto an occluding member and stay there).
+search starts from the prediction, coasting on the last velocity (at most
+:data:`COAST_FRAMES` frames), in a window that widens frame by frame up to
+``max_search_px``; no match is taken on top of another tracked marker (they look alike).
+With ``update_rate > 0`` the template drifts toward each good match (Kinovea-like adaptive
+tracking: it follows motion blur, and can slide onto an occluding member and stay there).
 """
 
 from __future__ import annotations
@@ -31,17 +31,15 @@ __all__ = ["TrackerSettings", "track_points", "template_half_size", "template_ma
 class TrackerSettings:
     """``search_px``: search radius (px) around the prediction, plus ``speed_factor`` × the
     last step (px per frame), widened by ``search_px`` for every frame the point has been
-    lost, up to ``max_search_px`` and to half the distance between the point and its nearest
-    neighbour on the first frame (the markers look alike: a careful user never lets a
-    lost point's window reach another marker); ``lost_score``: below it the point is lost
-    this frame;
+    lost, up to ``max_search_px``; ``lost_score``: below it the point is lost this frame (a
+    partly hidden marker scores 0.6–0.8, and so do look-alike spots of the background);
     ``update_rate``: blend of a good match into the template (0: the clicked template
     only); ``update_score``: a match good enough to update the template."""
 
     search_px: float = 6.0
     speed_factor: float = 0.75
-    max_search_px: float = 60.0
-    lost_score: float = 0.6
+    max_search_px: float = 15.0
+    lost_score: float = 0.8
     update_rate: float = 0.0
     update_score: float = 0.8
 
@@ -77,9 +75,9 @@ def peak_offset(scores: np.ndarray, i: int, j: int) -> tuple[float, float]:
     return dx, dy
 
 
-#: Frames a lost point's prediction is carried on at its last velocity; beyond them the
-#: search widens around that prediction instead of drifting on.
-COAST_FRAMES = 3
+#: Frames a lost point's prediction is carried on at its last velocity (a marker behind a
+#: frame member keeps moving); beyond them the prediction stays put.
+COAST_FRAMES = 30
 
 
 @dataclass
@@ -90,7 +88,6 @@ class _Point:
     offset: np.ndarray  # click minus the template's centre pixel, px
     good: np.ndarray  # last good position, px
     velocity: np.ndarray  # px per frame
-    widest: float  # largest search radius while lost, px
     lost: int = 0  # frames since the last good match
 
     @property
@@ -114,16 +111,12 @@ def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: fl
     for n, frame in enumerate(frames):
         image = frame.astype(np.float32)
         if n == 0:
-            clicked = np.asarray(clicks, dtype=float)
-            gaps = np.linalg.norm(clicked[:, None] - clicked[None], axis=-1)
-            np.fill_diagonal(gaps, np.inf)
-            for c, gap in zip(clicked, gaps.min(axis=1), strict=True):
+            for c in np.asarray(clicks, dtype=float):
                 centre = np.round(c).astype(int)
                 patch = _patch(image, centre, half)
                 if patch is None:
                     raise ValueError(f"click {c} too near the image's edge for a template")
-                widest = min(settings.max_search_px, 0.5 * float(gap))
-                points.append(_Point(patch, c - centre, c.copy(), np.zeros(2), widest))
+                points.append(_Point(patch, c - centre, c.copy(), np.zeros(2)))
             positions.append(np.asarray(clicks, dtype=float).copy())
             scores.append(np.ones(len(points)))
             continue
@@ -172,7 +165,7 @@ def _search(image: np.ndarray, p: _Point, half: int, mask: np.ndarray,
     if not np.isfinite(guess).all():
         return None
     base = settings.search_px + settings.speed_factor * float(np.linalg.norm(p.velocity))
-    radius = min(base + settings.search_px * p.lost, max(base, p.widest))
+    radius = min(base + settings.search_px * p.lost, max(base, settings.max_search_px))
     h, w = image.shape
     centre = np.round(guess - p.offset).astype(int)
     r = int(np.ceil(radius))
