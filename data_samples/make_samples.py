@@ -488,6 +488,29 @@ def build() -> list[Sample]:
     return samples
 
 
+#: The shot tracked from rendered video (written by ``python -m bench.video.sample``, not by
+#: this script): its rows of the README's table.
+TRACKED_VIDEO = (
+    ("video_tilted_dlc.csv",
+     "DeepLabCut CSV tracked from rendered video of `video_tilted.toml` (the paper's engine, "
+     "equal to `horsdal_large.toml`): a simulated camera 40 m away pitched up 10°, rolled "
+     "0.3°, radial distortion k1 = −0.03, 640×480 px, 120 fps at a 1/250 s shutter (motion "
+     "blur), lens blur 0.8 px, sensor noise 2 grey levels, the near frame's legs and brace in "
+     "front of the engine; markers tracked by masked template matching (OpenCV) from clicks "
+     "on frame 0 only (0.25 px sd), likelihood = match score; bodyparts `pivot`, `spigot`, "
+     "`hinge`, `counterweight`, `projectile` in image pixels (y down, not undistorted); "
+     "frame index 0–263 from the start of the video (trigger at frame 120, t = 1 s; release "
+     "at 1.997 s); 76 positions with likelihood below 0.9 (hinge 19 and counterweight 23 "
+     "behind frame members, stone 34 blurred or in flight). Seed `15`. Written by "
+     "`python -m bench.video.sample` (bench/video), not by make_samples.py. Read: "
+     "`read_log(path, fps=120)`; `trebuchet forces data_samples/video_tilted_dlc.csv "
+     "--scene data_samples/video_tilted.toml --fps 120`."),
+    ("video_tilted.toml",
+     "Scene file of `video_tilted_dlc.csv`: the paper's engine (equal to "
+     "`horsdal_large.toml`) with a header naming the camera."),
+)
+
+
 def readme_text(samples: list[Sample]) -> str:
     """The README of the samples: what is synthetic, how each file was made and is read."""
     lines = [
@@ -508,14 +531,15 @@ def readme_text(samples: list[Sample]) -> str:
         "y up; pivot (0, H), spigot = pivot + L1 e_θ, hinge = pivot − L2 e_θ, counterweight = "
         "hinge + L3 e_ψ, projectile = spigot + L4 e_φ.",
         "",
-        "`horsdal_large.toml` is the paper's engine (Table 1); `horsdal_240fps.csv` is the "
-        "sample of `make demo`.",
+        "`horsdal_large.toml` is the paper's engine (Table 1); `video_tilted_dlc.csv`, tracked "
+        "from rendered video, is the sample of `make demo`.",
         "",
         "| file | what it holds |",
         "|---|---|",
     ]
     for s in samples:
         lines.append(f"| `{s.name}` | {s.readme} |")
+    lines += [f"| `{name}` | {text} |" for name, text in TRACKED_VIDEO]
     lines += [
         "",
         "Angle noise of the point files follows from the position noise: about "
