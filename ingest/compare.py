@@ -30,6 +30,19 @@ finite sd and a prediction; quantities that exist only while the projectile is h
 sling force, the projectile's power and energy) from the trigger to the log's release, the
 others (beam, counterweight, bearing) on after release as far as both frames go. A peak is
 the value of greatest magnitude, sign kept, on those rows (so its time is a frame time).
+
+**Chance** (:func:`chance_levels`). Where the model is right, the prediction still leaves
+the measured ±2 sd band on some rows: 4.6 % of them on average for Gaussian errors. But
+neighbouring rows of a smoothed log share their errors (the smoother averages over several
+frames), so the outside fraction of one shot varies far more than a binomial count over
+rows would: a band of 280 rows holds only some 20 to 40 independent samples. The spread is
+estimated by simulation: the model's own angles, with the log's measured noise added, are
+reconstructed ``runs`` times with the log's events (the same pipeline, noise search
+included); the normalised errors ``(reconstructed − model) / sd`` of each quantity give its
+error variance and autocorrelation, and 4000 Gaussian series with that covariance give the
+distribution of the outside fraction. The prediction lies *within chance* when its outside
+fraction is at most that distribution's ``level`` quantile (95 %); ``effective_samples``
+is the number of independent rows that would give the same spread (p(1 − p) / variance).
 """
 
 from __future__ import annotations
@@ -48,9 +61,10 @@ from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import Trajectory, integrate, simulate
 from trebuchet.model.timeline import shot_events
 
-__all__ = ["Quantity", "QUANTITIES", "METRIC_COLUMNS", "CONTRACT_COLUMNS", "CompareOptions",
-           "RELEASE_MODES", "ALIGN_MODES", "release_rule", "fit_lag", "predict", "metrics",
-           "metric_row", "event_table", "compare_measured", "compare"]
+__all__ = ["Quantity", "QUANTITIES", "METRIC_COLUMNS", "CONTRACT_COLUMNS", "CHANCE_COLUMNS",
+           "CompareOptions", "RELEASE_MODES", "ALIGN_MODES", "release_rule", "fit_lag",
+           "predict", "metrics", "metric_row", "event_table", "outside_spans", "chance_levels",
+           "compare_measured", "compare"]
 
 RELEASE_MODES = ("auto", "log", "scene")
 ATTRS = ("lag", "angle_chi2", "alignment", "release_rule")
@@ -75,7 +89,7 @@ QUANTITIES: tuple[Quantity, ...] = (
     Quantity("F_R_abs", "|F_R|, bearing reaction at the pivot", "N"),
     Quantity("F_R_x", "F_R_x, horizontal component of the bearing reaction", "N"),
     Quantity("F_R_perp", "F_R⊥, bearing reaction across the beam", "N"),
-    Quantity("torque", "N, torque on the beam about the pivot", "N m"),
+    Quantity("torque", "torque on the beam about the pivot (the paper's N)", "N m"),
     Quantity("P_m", "P_m, rate of work on the projectile", "W", held=True),
     Quantity("E_m", "E_m, energy gained by the projectile", "J", held=True),
     Quantity("E_M", "E_M, energy gained by the counterweight", "J"),
@@ -92,7 +106,17 @@ differences); ``measured_peak_sd`` (sd of the measured value at its peak row);
 ``measured_peak_time``, ``predicted_peak_time`` (s after the trigger);
 ``peak_time_difference`` (predicted − measured, s); ``peak_difference_in_sd``
 ((predicted − measured peak) / measured_peak_sd); ``rows`` compared and the window
-``window_start``, ``window_end`` (s after the trigger)."""
+``window_start``, ``window_end`` (s after the trigger); then :data:`CHANCE_COLUMNS` when
+the chance levels were estimated."""
+
+CHANCE_COLUMNS = ["chance_fraction", "chance_limit", "effective_samples", "within_chance",
+                  "outside_start", "outside_end", "outside_worst_sd"]
+"""Added to metrics.csv by :func:`compare` (``CompareOptions.chance_runs`` > 0):
+``chance_fraction`` (mean outside fraction where the model is right), ``chance_limit`` (its
+95 % quantile), ``effective_samples`` (independent rows giving that spread),
+``within_chance`` (outside_band_fraction ≤ chance_limit), ``outside_start``,
+``outside_end`` (s after the trigger: the longest stretch of rows outside the band) and
+``outside_worst_sd`` (the largest (predicted − measured) / sd there, sign kept)."""
 
 
 @dataclass(frozen=True)
@@ -101,6 +125,8 @@ class CompareOptions:
 
     ``release``: "auto", "log" or "scene" (module doc). ``band_sd``: half-width of the
     measured band in sd (the figures' band). ``rtol``: the simulator's tolerance or preset.
+    ``chance_runs``: simulated logs for :func:`chance_levels` (0: none, no verdict);
+    ``chance_level``: the quantile that bounds chance; ``seed``: of those simulations.
     """
 
     release: str = "auto"
@@ -108,6 +134,9 @@ class CompareOptions:
     max_lag: float = 0.1
     band_sd: float = BAND_SD
     rtol: float | str = "default"
+    chance_runs: int = 8
+    chance_level: float = 0.95
+    seed: int = 0
 
     def __post_init__(self) -> None:
         check_choice("compare", "align", self.align, ALIGN_MODES)
@@ -116,6 +145,12 @@ class CompareOptions:
         check_choice("compare", "release", self.release, RELEASE_MODES)
         if not (math.isfinite(self.band_sd) and self.band_sd > 0):
             raise TrebuchetInputError(f"compare: band_sd = {self.band_sd!r} must be > 0")
+        if not (isinstance(self.chance_runs, int) and 0 <= self.chance_runs <= 1000):
+            raise TrebuchetInputError(f"compare: chance_runs = {self.chance_runs!r} must be a "
+                                      "whole number from 0 to 1000")
+        if not 0.5 < self.chance_level < 1.0:
+            raise TrebuchetInputError(f"compare: chance_level = {self.chance_level!r} must lie "
+                                      "between 0.5 and 1")
 
 
 # ----------------------------------------------------------------------------- prediction
@@ -132,11 +167,13 @@ def _log_release_after_trigger(measured: pd.DataFrame) -> float | None:
                              float(measured["t"].iloc[0]))
 
 
-def release_rule(scene: Scene, log_release: float | None, mode: str = "auto"
-                 ) -> tuple[Scene, str]:
+def release_rule(scene: Scene, log_release: float | None, mode: str = "auto", *,
+                 lag: float = 0.0) -> tuple[Scene, str]:
     """The scene to simulate and a sentence saying which release rule it uses.
 
-    ``log_release``: the log's release, s after the trigger (None: the log shows none).
+    ``log_release``: the log's release, s after the model's start (None: the log shows
+    none); ``lag``: the model's start after the log's detected trigger (s), so that the
+    sentence gives the release on both clocks.
     ``mode``: "auto" replaces a time rule by the log's release and keeps a velocity-angle
     rule; "log" always takes the log's release; "scene" keeps the scene's rule.
     """
@@ -154,9 +191,11 @@ def release_rule(scene: Scene, log_release: float | None, mode: str = "auto"
     take_log = log_release is not None and (
         mode == "log" or (mode == "auto" and rel.velocity_angle is None))
     if take_log:
+        clocks = (f"{1e3 * (log_release + lag):.1f} ms after the log's trigger"
+                  + (f", {1e3 * log_release:.1f} ms after the model's start" if lag else ""))
         return (scene.with_release(time=log_release),
-                f"released when the log shows release, {log_release:.4g} s after the "
-                f"trigger (the scene's rule, {own}, replaced)")
+                f"released when the log shows release ({clocks}; the scene's rule, {own}, "
+                "replaced)")
     why = {"scene": "kept as asked",
            "auto": ("the log shows no release" if log_release is None
                     else "a velocity-angle rule is the scene's own"),
@@ -246,7 +285,7 @@ def predict(scene: Scene, measured: pd.DataFrame, options: CompareOptions | None
             alignment += f", at the limit of the search (±{1e3 * options.max_lag:g} ms)"
     alignment += f"; angle residuals {chi2:.3g} sd² per row"
     used, sentence = release_rule(scene, None if log_release is None else log_release - lag,
-                                  options.release)
+                                  options.release, lag=lag)
     t_end = integrate(used, rtol=options.rtol).t_end
     t_shot = measured["t_shot"].to_numpy(dtype=float)
     tau = t_shot - lag
@@ -361,6 +400,177 @@ def event_table(measured: pd.DataFrame, predicted: pd.DataFrame) -> pd.DataFrame
                                        "difference"])
 
 
+# ----------------------------------------------------------------------------- chance
+
+
+def outside_spans(t: np.ndarray, measured: np.ndarray, sd: np.ndarray, predicted: np.ndarray,
+                  band_sd: float = BAND_SD) -> list[tuple[float, float, float]]:
+    """Stretches of rows where the prediction leaves the measured band, longest first:
+    ``(start, end, worst)`` with times as ``t`` and ``worst`` the (predicted − measured) / sd
+    of greatest magnitude in the stretch (sign kept). A single row inside the band does not
+    split a stretch."""
+    with np.errstate(all="ignore"):
+        z = (predicted - measured) / sd
+    out_rows = np.abs(z) > band_sd
+    idx = np.flatnonzero(out_rows)
+    if idx.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(idx) > 2)
+    starts = np.concatenate(([idx[0]], idx[breaks + 1]))
+    ends = np.concatenate((idx[breaks], [idx[-1]]))
+    spans = []
+    for a, b in zip(starts, ends, strict=True):
+        zz = z[a:b + 1]
+        k = int(np.nanargmax(np.abs(zz)))
+        spans.append((float(t[a]), float(t[b]), float(zz[k]), int(b - a + 1)))
+    spans.sort(key=lambda sp: -sp[3])
+    return [sp[:3] for sp in spans]
+
+
+def _truth_log(measured: pd.DataFrame, predicted: pd.DataFrame) -> pd.DataFrame:
+    """The log the model says was filmed: its θ, ψ, φ at the log's rows (the measured,
+    smoothed angles where the model has no row), gaps where the log has none."""
+    log = pd.DataFrame({"t": measured["t"].to_numpy(dtype=float)}, index=measured.index)
+    for a in ("theta", "psi", "phi"):
+        values = measured[a].to_numpy(dtype=float).copy()
+        if a in predicted.columns:
+            model = predicted[a].reindex(measured.index).to_numpy(dtype=float)
+            have = np.isfinite(model) & np.isfinite(values)
+            values[have] = model[have]
+        log[a] = values
+    return log.reset_index(drop=True)
+
+
+def _autocorrelation(z: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(variance, rho)`` of standardised errors ``z`` (runs × rows; NaN = no value), pooled
+    over runs; ``rho`` is cut to zero from its first non-positive lag on."""
+    ok = np.isfinite(z)
+    zz = np.where(ok, z, 0.0)
+    n = z.shape[1]
+    var = float(np.sum(zz * zz) / max(ok.sum(), 1))
+    rho = np.zeros(n)
+    rho[0] = 1.0
+    for k in range(1, n):
+        both = ok[:, k:] & ok[:, :-k]
+        if both.sum() < 10:
+            break
+        c = float(np.sum(zz[:, k:] * zz[:, :-k]) / both.sum()) / var
+        if c <= 0.0:
+            break
+        rho[k] = c
+    return var, rho
+
+
+def _gaussian_fractions(var: float, rho: np.ndarray, band_sd: float, draws: int,
+                        rng: np.random.Generator) -> np.ndarray:
+    """Outside fractions of ``draws`` stationary Gaussian series (variance ``var``,
+    autocorrelation ``rho``, as long as ``rho``) beyond ±``band_sd``: circulant embedding,
+    negative eigenvalues clipped."""
+    n = rho.size
+    m = 1 << int(math.ceil(math.log2(2 * n)))
+    c = np.zeros(m)
+    c[:n] = rho
+    c[m - n + 1:] = rho[1:][::-1]
+    lam = np.clip(np.fft.fft(c).real, 0.0, None)
+    fractions = []
+    for start in range(0, draws, 1000):
+        k = min(1000, draws - start)
+        w = rng.standard_normal((k, m)) + 1j * rng.standard_normal((k, m))
+        x = np.fft.fft(np.sqrt(lam / m) * w, axis=1)
+        series = np.concatenate((x.real[:, :n], x.imag[:, :n])) * math.sqrt(var)
+        fractions.append(np.mean(np.abs(series) > band_sd, axis=1))
+    return np.concatenate(fractions)[:draws]
+
+
+def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene, *,
+                  runs: int = 8, band_sd: float = BAND_SD, level: float = 0.95,
+                  seed: int = 0, draws: int = 4000,
+                  quantities: Sequence[Quantity] = QUANTITIES) -> pd.DataFrame:
+    """How often the prediction would leave the measured band if the model were right
+    (module doc, "Chance"): one row per quantity with ``quantity`` and ``chance_fraction``,
+    ``chance_limit``, ``effective_samples`` (NaN where the quantity has no compared rows).
+
+    ``measured`` must come from :func:`~trebuchet.ingest.reconstruct.reconstruct` (its
+    ``attrs`` give the events, the noise per angle, the form and the trough setting).
+    """
+    from trebuchet.ingest.reconstruct import reconstruct
+
+    a = measured.attrs
+    noise = a.get("noise") or {}
+    # the model's own start is the simulated log's trigger (given, as the log's lift-off and
+    # release are): the simulated shot is the model's, and its errors only the smoother's
+    events = {k: v for k, v in (a.get("events") or {}).items()
+              if k in ("trigger", "lift_off", "release")}
+    if events.get("trigger") is not None:
+        events["trigger"] = float(events["trigger"]) + float(predicted.attrs.get("lag", 0.0))
+    truth = _truth_log(measured, predicted)
+    rng = np.random.default_rng(seed)
+    windows = {q.column: _window(q, measured, predicted) for q in quantities}
+    errors: dict[str, list[np.ndarray]] = {q.column: [] for q in quantities}
+    import warnings
+
+    for _ in range(runs):
+        log = truth.copy()
+        for angle in ("theta", "psi", "phi"):
+            r_sd = float((noise.get(angle) or {}).get("r_sd", math.nan))
+            if math.isfinite(r_sd):
+                log[angle] = log[angle] + r_sd * rng.standard_normal(len(log))
+        log.attrs["source"] = "a simulated log of the model"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                sim = reconstruct(log, scene, events=events, form=a.get("form"),
+                                  trough=a.get("trough"))
+            except TrebuchetInputError:
+                continue
+        sim.index = measured.index
+        for q in quantities:
+            rows = windows[q.column]
+            with np.errstate(all="ignore"):
+                z = ((sim.loc[rows, q.column] - predicted.loc[rows, q.column])
+                     / sim.loc[rows, q.column + "_sd"]).to_numpy(dtype=float)
+            errors[q.column].append(z)
+    out = []
+    for q in quantities:
+        row = {"quantity": q.column, "chance_fraction": math.nan, "chance_limit": math.nan,
+               "effective_samples": math.nan}
+        if errors[q.column] and windows[q.column].size >= 2:
+            var, rho = _autocorrelation(np.array(errors[q.column]))
+            f = _gaussian_fractions(var, rho, band_sd, draws, rng)
+            p = float(np.mean(f))
+            spread = float(np.var(f))
+            row |= {"chance_fraction": p, "chance_limit": float(np.quantile(f, level)),
+                    "effective_samples": (p * (1 - p) / spread if spread > 0 else math.nan)}
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def _with_chance(table: pd.DataFrame, chance: pd.DataFrame, measured: pd.DataFrame,
+                 predicted: pd.DataFrame, band_sd: float) -> pd.DataFrame:
+    """``table`` with :data:`CHANCE_COLUMNS` filled from ``chance`` and the stretches
+    outside the band."""
+    table = table.merge(chance, on="quantity", how="left")
+    table["within_chance"] = table["outside_band_fraction"] <= table["chance_limit"]
+    starts, ends, worst = [], [], []
+    for q in QUANTITIES:
+        rows = _window(q, measured, predicted)
+        m = measured.loc[rows]
+        spans = outside_spans(m["t_shot"].to_numpy(dtype=float),
+                              m[q.column].to_numpy(dtype=float),
+                              m[q.column + "_sd"].to_numpy(dtype=float),
+                              predicted.loc[rows, q.column].to_numpy(dtype=float), band_sd)
+        first = spans[0] if spans else (math.nan, math.nan, math.nan)
+        starts.append(first[0])
+        ends.append(first[1])
+        worst.append(first[2])
+    by = {q.column: i for i, q in enumerate(QUANTITIES)}
+    order = [by.get(c) for c in table["quantity"]]
+    for name, values in (("outside_start", starts), ("outside_end", ends),
+                         ("outside_worst_sd", worst)):
+        table[name] = [values[i] if i is not None else math.nan for i in order]
+    return table[METRIC_COLUMNS + CHANCE_COLUMNS]
+
+
 # ----------------------------------------------------------------------------- entry points
 
 
@@ -384,14 +594,16 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     ----------
     log_or_path : a log file or a DataFrame of angles (as for ``reconstruct``).
     scene : the engine filmed (a Scene or a scene file).
-    options : :class:`CompareOptions` (release rule, alignment, band width, tolerance).
+    options : :class:`CompareOptions` (release rule, alignment, band width, tolerance,
+        chance runs).
     progress : told each step before it runs (reconstructing takes seconds).
     **reconstruct_options : passed to :func:`~trebuchet.ingest.reconstruct.reconstruct`
         (``fps``, ``columns``, ``points``, ``events``, ``form``, ...).
 
     Returns
     -------
-    ``(metrics, measured, predicted)``: the table of :func:`metrics` (``attrs``: ``lag``,
+    ``(metrics, measured, predicted)``: the table of :func:`metrics`, with
+    :data:`CHANCE_COLUMNS` when ``options.chance_runs`` > 0 (``attrs``: ``lag``,
     ``angle_chi2``, ``alignment``, ``release_rule``), the reconstructed frame (log time
     ``t``, ``t_shot``, loads and their sd) and the simulation at the measured rows (same
     index and ``t_shot``; ``t`` is model time, see :func:`predict`).
@@ -414,5 +626,14 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     say(f"reconstructing the loads of {name}")
     measured = reconstruct(log_or_path, scene, **reconstruct_options)
     say(f"simulating {scene.source} at the log's {len(measured)} frames")
+    options = options or CompareOptions()
     table, predicted = compare_measured(measured, scene, options)
+    if options.chance_runs > 0:
+        say(f"estimating what chance allows from {options.chance_runs} simulated logs")
+        chance = chance_levels(measured, predicted, predicted.attrs["scene"],
+                               runs=options.chance_runs, band_sd=options.band_sd,
+                               level=options.chance_level, seed=options.seed)
+        attrs = dict(table.attrs)
+        table = _with_chance(table, chance, measured, predicted, options.band_sd)
+        table.attrs.update(attrs)
     return table, measured, predicted

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import warnings
 from collections.abc import Sequence
 from typing import NoReturn
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import TrebuchetInputError, command_line
 
 ROOMS = (
     "trebuchet.model.cli",
@@ -58,12 +59,28 @@ def _format_warning(message, category, filename, lineno, line=None) -> str:
     return f"trebuchet: warning: {message}\n"
 
 
+def _quiet_stdout() -> None:
+    """The reader of our output has gone (``trebuchet paper | head``): send what is left of
+    stdout nowhere, so that neither we nor the interpreter's final flush report it."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.formatwarning = _format_warning
     try:
-        return int(args.run(args) or 0)
+        with command_line():  # hints name --options, not Python keywords (errors.Option)
+            status = int(args.run(args) or 0)
+        sys.stdout.flush()
+        return status
+    except BrokenPipeError:
+        _quiet_stdout()
+        return 141  # as a shell reports a command ended by SIGPIPE; no message
     except TrebuchetInputError as exc:
         print(f"trebuchet: error: {exc}", file=sys.stderr)
         return 2
