@@ -10,7 +10,7 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import TrebuchetInputError, cli_command
 from trebuchet.ingest.reconstruct import FORMS, TROUGH, reconstruct
 from trebuchet.output import check_target, write_csv
 
@@ -208,6 +208,7 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     return "\n".join(lines)
 
 
+@cli_command
 def _forces(args: argparse.Namespace) -> int:
     check_target(args.output)
     options = reconstruct_options(args)

@@ -22,12 +22,17 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
+import os
 import shlex
-from collections.abc import Iterator, Mapping
+import sys
+import warnings
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 __all__ = ["TrebuchetInputError", "TrebuchetDataWarning", "ModelValidityWarning", "Option",
-           "check_choice", "command_line", "on_command_line"]
+           "check_choice", "command_line", "cli_command", "on_command_line", "warn_at_caller"]
 
 _INTERFACE: contextvars.ContextVar[str] = contextvars.ContextVar("trebuchet_interface",
                                                                  default="python")
@@ -41,6 +46,16 @@ def command_line() -> Iterator[None]:
         yield
     finally:
         _INTERFACE.reset(token)
+
+
+def cli_command(run: Callable[..., int]) -> Callable[..., int]:
+    """Decorate a sub-command's ``run(args)``: it speaks the command line's words however it
+    is called (``trebuchet.cli.main`` or a test calling ``args.run(args)``)."""
+    @functools.wraps(run)
+    def wrapped(*args: Any, **kwargs: Any) -> int:
+        with command_line():
+            return run(*args, **kwargs)
+    return wrapped
 
 
 def on_command_line() -> bool:
@@ -140,6 +155,20 @@ def check_choice(owner: str, name: str, value: object, options: tuple) -> None:
     if value not in options:
         raise TrebuchetInputError(f"{owner}: {Option(name)} must be one of {tuple(options)}, "
                                   f"not {value!r}")
+
+
+_PACKAGE_DIRS = tuple(os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep + d
+                      for d in ("trebuchet", "model", "ingest", "fmu", "data_samples"))
+
+
+def warn_at_caller(message: str | Warning, category: type[Warning] = UserWarning) -> None:
+    """``warnings.warn`` pointing at the first line outside this package (the user's call),
+    however deep inside the package it is issued (Python 3.12's ``skip_file_prefixes``)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(
+            _PACKAGE_DIRS):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, category, stacklevel=level)
 
 
 class TrebuchetDataWarning(UserWarning):

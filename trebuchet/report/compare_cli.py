@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import TrebuchetInputError, cli_command, warn_at_caller
 from trebuchet.ingest.cli import add_reconstruct_arguments, reconstruct_options
 from trebuchet.ingest.compare import (
     ALIGN_MODES,
@@ -43,7 +43,7 @@ def _advisories(caught: list[warnings.WarningMessage], predicted: pd.DataFrame) 
     """The warnings of reconstruct and simulate (passed on to the caller too, at the
     caller's line), and whether the model's angles fit the measured ones at all."""
     for w in caught:
-        warnings.warn(w.message, w.category, stacklevel=3)
+        warn_at_caller(w.message, w.category)
     out = [str(w.message) for w in caught]
     chi2 = predicted.attrs.get("angle_chi2", math.nan)
     if chi2 > ANGLE_MISFIT_ADVISORY:
@@ -153,6 +153,7 @@ def _release_rule(args: argparse.Namespace) -> str:
     return args.release_rule or "auto"
 
 
+@cli_command
 def _compare(args: argparse.Namespace) -> int:
     start = time.monotonic()
     # what can be checked before the progress lines start: the report folder, the log, the scene
