@@ -37,12 +37,15 @@ neighbouring rows of a smoothed log share their errors (the smoother averages ov
 frames), so the outside fraction of one shot varies far more than a binomial count over
 rows would: a band of 280 rows holds only some 20 to 40 independent samples. The spread is
 estimated by simulation: the model's own angles, with the log's measured noise added, are
-reconstructed ``runs`` times with the log's events (the same pipeline, noise search
-included); the normalised errors ``(reconstructed − model) / sd`` of each quantity give its
-error variance and autocorrelation, and 4000 Gaussian series with that covariance give the
-distribution of the outside fraction. The prediction lies *within chance* when its outside
-fraction is at most that distribution's ``level`` quantile (95 %); ``effective_samples``
-is the number of independent rows that would give the same spread (p(1 − p) / variance).
+reconstructed ``runs`` times with the log's lift-off and release (the same pipeline,
+trigger detection and noise search included); the normalised errors
+``(reconstructed − model) / sd`` of each quantity give its error variance and
+autocorrelation, and 4000 Gaussian series with that covariance give the distribution of
+the outside fraction (a correct model's, pipeline biases included: where the band is too
+narrow for the error, a correct model leaves it more often, and chance allows more).
+The prediction lies *within chance* when its outside fraction is at most that
+distribution's ``level`` quantile (95 %); ``effective_samples`` is the number of
+independent rows that would give the same spread (p(1 − p) / variance).
 """
 
 from __future__ import annotations
@@ -427,16 +430,22 @@ def outside_spans(t: np.ndarray, measured: np.ndarray, sd: np.ndarray, predicted
     return [sp[:3] for sp in spans]
 
 
-def _truth_log(measured: pd.DataFrame, predicted: pd.DataFrame) -> pd.DataFrame:
-    """The log the model says was filmed: its θ, ψ, φ at the log's rows (the measured,
-    smoothed angles where the model has no row), gaps where the log has none."""
+def _truth_log(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene) -> pd.DataFrame:
+    """The log the model says was filmed: its θ, ψ, φ at the log's rows, the start pose before
+    the model's start, the measured (smoothed) angles after its end; gaps where the log has
+    none."""
     log = pd.DataFrame({"t": measured["t"].to_numpy(dtype=float)}, index=measured.index)
+    lag = float(predicted.attrs.get("lag", 0.0))
+    before = measured["t_shot"].to_numpy(dtype=float) - lag < 0.0
+    start = {"theta": scene.start.theta, "psi": scene.start.psi, "phi": scene.start.phi}
     for a in ("theta", "psi", "phi"):
         values = measured[a].to_numpy(dtype=float).copy()
+        have = np.isfinite(values)
+        values[before & have] = start[a]
         if a in predicted.columns:
             model = predicted[a].reindex(measured.index).to_numpy(dtype=float)
-            have = np.isfinite(model) & np.isfinite(values)
-            values[have] = model[have]
+            use = np.isfinite(model) & have
+            values[use] = model[use]
         log[a] = values
     return log.reset_index(drop=True)
 
@@ -497,13 +506,11 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
 
     a = measured.attrs
     noise = a.get("noise") or {}
-    # the model's own start is the simulated log's trigger (given, as the log's lift-off and
-    # release are): the simulated shot is the model's, and its errors only the smoother's
-    events = {k: v for k, v in (a.get("events") or {}).items()
-              if k in ("trigger", "lift_off", "release")}
-    if events.get("trigger") is not None:
-        events["trigger"] = float(events["trigger"]) + float(predicted.attrs.get("lag", 0.0))
-    truth = _truth_log(measured, predicted)
+    # the trigger is found in each simulated log as in the real one (its error shapes the
+    # loads of the first frames); lift-off and release are given, as the log's (the release
+    # check by the engine's equations would take seconds per log)
+    events = {k: v for k, v in (a.get("events") or {}).items() if k in ("lift_off", "release")}
+    truth = _truth_log(measured, predicted, scene)
     rng = np.random.default_rng(seed)
     windows = {q.column: _window(q, measured, predicted) for q in quantities}
     errors: dict[str, list[np.ndarray]] = {q.column: [] for q in quantities}

@@ -164,7 +164,7 @@ _PACKAGE_DIRS = tuple(os.path.dirname(os.path.dirname(os.path.abspath(__file__))
 def warn_at_caller(message: str | Warning, category: type[Warning] = UserWarning) -> None:
     """``warnings.warn`` pointing at the first line outside this package (the user's call),
     however deep inside the package it is issued (Python 3.12's ``skip_file_prefixes``)."""
-    frame, level = sys._getframe(1), 1
+    frame, level = sys._getframe(1), 2
     while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(
             _PACKAGE_DIRS):
         frame, level = frame.f_back, level + 1

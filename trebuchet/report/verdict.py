@@ -57,11 +57,21 @@ def _pct(value: float) -> str:
     return f"{100 * value:.0f} %" if value >= 0.095 or value == 0 else f"{100 * value:.1f} %"
 
 
+#: Outside fraction of a correct model for Gaussian errors and a ±2 sd band (2 Φ(−2)).
+NOMINAL = math.erfc(2.0 / math.sqrt(2.0))
+#: A chance fraction this many times the nominal one: the band understates the error.
+NARROW = 3.0
+
+
 def _where(row: pd.Series, release_ms: float | None) -> str:
-    """"agrees" or where and how the prediction leaves the band."""
+    """"agrees" or where and how the prediction leaves the band; a band that even a correct
+    model leaves far more often than nominal is said to be narrow."""
     if not math.isfinite(row.get("chance_limit", math.nan)):
         return "no verdict (chance not estimated)"
     if row["within_chance"]:
+        if row["chance_fraction"] > NARROW * NOMINAL:
+            return (f"agrees, but the band is narrow: even a correct model leaves it on "
+                    f"{_pct(row['chance_fraction'])} of the rows")
         return "agrees"
     start, end = 1e3 * row["outside_start"], 1e3 * row["outside_end"]
     worst = row["outside_worst_sd"]
