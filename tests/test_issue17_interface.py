@@ -207,3 +207,11 @@ def test_warnings_point_at_the_callers_line():
         warnings.simplefilter("always")
         deep()
     assert caught[0].filename == __file__
+
+
+def test_the_license_is_an_spdx_string_setuptools_does_not_warn_about():
+    import tomllib
+
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    assert data["project"]["license"] == "MIT"
+    assert any(r.startswith("setuptools>=77") for r in data["build-system"]["requires"])
