@@ -52,9 +52,10 @@ def _num(value: float, digits: int = 3) -> str:
 
 
 def _pct(value: float) -> str:
+    """A fraction in %: one decimal (13.1 % and 12.7 % must not both read 13 %), 0 as 0."""
     if value is None or not math.isfinite(value):
         return "–"
-    return f"{100 * value:.0f} %" if value >= 0.095 or value == 0 else f"{100 * value:.1f} %"
+    return "0 %" if value == 0 else f"{100 * value:.1f} %"
 
 
 #: Outside fraction of a correct model for Gaussian errors and a ±2 sd band (2 Φ(−2)).
