@@ -37,12 +37,13 @@ neighbouring rows of a smoothed log share their errors (the smoother averages ov
 frames), so the outside fraction of one shot varies far more than a binomial count over
 rows would: a band of 280 rows holds only some 20 to 40 independent samples. The spread is
 estimated by simulation: the model's own angles, with the log's measured noise added, are
-reconstructed ``runs`` times with the log's lift-off and release (the same pipeline,
-trigger detection and noise search included); the normalised errors
-``(reconstructed − model) / sd`` of each quantity give its error variance and
-autocorrelation, and 4000 Gaussian series with that covariance give the distribution of
-the outside fraction (a correct model's, pipeline biases included: where the band is too
-narrow for the error, a correct model leaves it more often, and chance allows more).
+reconstructed ``runs`` times as the log was (the same pipeline: events found, noise
+searched); the normalised errors ``(reconstructed − model) / sd`` of each quantity give how
+often a correct model leaves the band (counted over all runs and rows) and the errors'
+autocorrelation, and 4000 Gaussian series with that correlation, scaled to leave the band
+as often, give the distribution of the outside fraction (a correct model's, the
+pipeline's biases included: where the band is too narrow for the error, a correct model
+leaves it more often, and chance allows more).
 The prediction lies *within chance* when its outside fraction is at most that
 distribution's ``level`` quantile (95 %); ``effective_samples`` is the number of
 independent rows that would give the same spread (p(1 − p) / variance).
@@ -137,7 +138,7 @@ class CompareOptions:
     max_lag: float = 0.1
     band_sd: float = BAND_SD
     rtol: float | str = "default"
-    chance_runs: int = 8
+    chance_runs: int = 12
     chance_level: float = 0.95
     seed: int = 0
 
@@ -452,9 +453,14 @@ def _truth_log(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene) ->
 
 def _autocorrelation(z: np.ndarray) -> tuple[float, np.ndarray]:
     """``(variance, rho)`` of standardised errors ``z`` (runs × rows; NaN = no value), pooled
-    over runs; ``rho`` is cut to zero from its first non-positive lag on."""
+    over runs; ``rho`` is cut to zero from its first non-positive lag on. Values beyond four
+    robust sd (1.4826 × median absolute value) are clipped there first, so that a few large
+    errors (next to an event) do not set the correlation of the rest."""
     ok = np.isfinite(z)
-    zz = np.where(ok, z, 0.0)
+    if not ok.any():
+        return math.nan, np.ones(1)
+    scale = 1.4826 * float(np.median(np.abs(z[ok]))) or 1.0
+    zz = np.where(ok, np.clip(z, -4 * scale, 4 * scale), 0.0)
     n = z.shape[1]
     var = float(np.sum(zz * zz) / max(ok.sum(), 1))
     rho = np.zeros(n)
@@ -468,6 +474,18 @@ def _autocorrelation(z: np.ndarray) -> tuple[float, np.ndarray]:
             break
         rho[k] = c
     return var, rho
+
+
+def _exceedance_scale(z: np.ndarray, band_sd: float) -> tuple[float, float]:
+    """``(p, sd)``: how often the simulated errors ``z`` leave ±``band_sd`` (counted, with
+    one added to either side: (k + 1) / (N + 2), never 0 or 1 from a finite sample), and the
+    sd of a Gaussian error that leaves it as often."""
+    from scipy.special import ndtri
+
+    ok = np.isfinite(z)
+    k, n = int(np.sum(np.abs(z[ok]) > band_sd)), int(ok.sum())
+    p = (k + 1) / (n + 2)
+    return p, band_sd / float(ndtri(1.0 - p / 2.0))
 
 
 def _gaussian_fractions(var: float, rho: np.ndarray, band_sd: float, draws: int,
@@ -492,7 +510,7 @@ def _gaussian_fractions(var: float, rho: np.ndarray, band_sd: float, draws: int,
 
 
 def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene, *,
-                  runs: int = 8, band_sd: float = BAND_SD, level: float = 0.95,
+                  runs: int = 12, band_sd: float = BAND_SD, level: float = 0.95,
                   seed: int = 0, draws: int = 4000,
                   quantities: Sequence[Quantity] = QUANTITIES) -> pd.DataFrame:
     """How often the prediction would leave the measured band if the model were right
@@ -506,10 +524,8 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
 
     a = measured.attrs
     noise = a.get("noise") or {}
-    # the trigger is found in each simulated log as in the real one (its error shapes the
-    # loads of the first frames); lift-off and release are given, as the log's (the release
-    # check by the engine's equations would take seconds per log)
-    events = {k: v for k, v in (a.get("events") or {}).items() if k in ("lift_off", "release")}
+    # every event is found in each simulated log as in the real one: their errors and sd
+    # shape the loads and bands of the frames around them
     truth = _truth_log(measured, predicted, scene)
     rng = np.random.default_rng(seed)
     windows = {q.column: _window(q, measured, predicted) for q in quantities}
@@ -526,8 +542,7 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                sim = reconstruct(log, scene, events=events, form=a.get("form"),
-                                  trough=a.get("trough"))
+                sim = reconstruct(log, scene, form=a.get("form"), trough=a.get("trough"))
             except TrebuchetInputError:
                 continue
         sim.index = measured.index
@@ -542,8 +557,10 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
         row = {"quantity": q.column, "chance_fraction": math.nan, "chance_limit": math.nan,
                "effective_samples": math.nan}
         if errors[q.column] and windows[q.column].size >= 2:
-            var, rho = _autocorrelation(np.array(errors[q.column]))
-            f = _gaussian_fractions(var, rho, band_sd, draws, rng)
+            z = np.array(errors[q.column])
+            _, rho = _autocorrelation(z)
+            _, sd = _exceedance_scale(z, band_sd)
+            f = _gaussian_fractions(sd * sd, rho, band_sd, draws, rng)
             p = float(np.mean(f))
             spread = float(np.var(f))
             row |= {"chance_fraction": p, "chance_limit": float(np.quantile(f, level)),
