@@ -97,10 +97,11 @@ def test_option_reads_as_a_flag_on_the_command_line_and_a_keyword_in_python():
 def test_the_command_line_rewrites_keyword_hints_of_unconverted_messages():
     flags = {"--fps", "--column", "--point"}
     text = ("name it with columns={'<column in the file>': 'theta'}; or fps=240, "
-            "points={'pivot': 'axle', 'spigot': 'tip'}; time_unit='ms' stays")
+            "points={'pivot': 'axle', 'spigot': 'tip'}; time_unit='ms' stays; pass fps= to "
+            "use it")
     assert cli_words(text, flags) == (
         "name it with --column '<column in the file>=theta'; or --fps 240, "
-        "--point pivot=axle --point spigot=tip; time_unit='ms' stays")
+        "--point pivot=axle --point spigot=tip; time_unit='ms' stays; pass --fps to use it")
 
 
 @pytest.mark.parametrize("sample, flag", [("horsdal_tracker.txt", "--column"),

@@ -58,7 +58,8 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-_KEYWORD = re.compile(r"\b([a-z][a-z_]*)=(\{|'[^']*'|\"[^\"]*\"|[-+0-9.eE]+|[A-Za-z_]\w*)")
+_KEYWORD = re.compile(r"\b([a-z][a-z_]*)=(\{|'[^']*'|\"[^\"]*\"|[-+0-9.eE]+|[A-Za-z_]\w*"
+                      r"|(?=[\s),;]|$))")
 
 
 def _balanced(text: str, start: int) -> int:
@@ -92,7 +93,9 @@ def cli_words(message: str, flags: set[str]) -> str:
         if flag not in flags or match.start() < pos:
             continue
         end = match.end()
-        if value == "{":
+        if value == "":  # "pass fps= to ...": the option alone
+            text = flag
+        elif value == "{":
             end = _balanced(message, match.start(2))
             if end < 0:
                 continue
