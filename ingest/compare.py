@@ -113,12 +113,16 @@ differences); ``measured_peak_sd`` (sd of the measured value at its peak row);
 ``window_start``, ``window_end`` (s after the trigger); then :data:`CHANCE_COLUMNS` when
 the chance levels were estimated."""
 
-CHANCE_COLUMNS = ["chance_fraction", "chance_limit", "effective_samples", "within_chance",
-                  "outside_start", "outside_end", "outside_worst_sd"]
+CHANCE_COLUMNS = ["chance_fraction", "chance_limit", "chance_limit_all", "effective_samples",
+                  "within_chance", "verdict", "outside_start", "outside_end",
+                  "outside_worst_sd"]
 """Added to metrics.csv by :func:`compare` (``CompareOptions.chance_runs`` > 0):
 ``chance_fraction`` (mean outside fraction where the model is right), ``chance_limit`` (its
 95 % quantile), ``effective_samples`` (independent rows giving that spread),
-``within_chance`` (outside_band_fraction ≤ chance_limit), ``outside_start``,
+``chance_limit_all`` (its 1 − 0.05 / 10 quantile: the limit that a correct model's ten
+quantities all stay within 95 % of the time), ``within_chance`` (outside_band_fraction ≤
+chance_limit), ``verdict`` ("agrees"; "borderline": above chance_limit, not above
+chance_limit_all; "differs": above chance_limit_all), ``outside_start``,
 ``outside_end`` (s after the trigger: the longest stretch of rows outside the band) and
 ``outside_worst_sd`` (the largest (predicted − measured) / sd there, sign kept)."""
 
@@ -515,7 +519,10 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
                   quantities: Sequence[Quantity] = QUANTITIES) -> pd.DataFrame:
     """How often the prediction would leave the measured band if the model were right
     (module doc, "Chance"): one row per quantity with ``quantity`` and ``chance_fraction``,
-    ``chance_limit``, ``effective_samples`` (NaN where the quantity has no compared rows).
+    ``chance_limit`` (the ``level`` quantile), ``chance_limit_all`` (the 1 − (1 − level) / n
+    quantile for the n quantities: Bonferroni, so that a correct model's n quantities all
+    stay within their limits at least ``level`` of the time), ``effective_samples`` (NaN
+    where the quantity has no compared rows).
 
     ``measured`` must come from :func:`~trebuchet.ingest.reconstruct.reconstruct` (its
     ``attrs`` give the events, the noise per angle, the form and the trough setting).
@@ -555,7 +562,7 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
     out = []
     for q in quantities:
         row = {"quantity": q.column, "chance_fraction": math.nan, "chance_limit": math.nan,
-               "effective_samples": math.nan}
+               "chance_limit_all": math.nan, "effective_samples": math.nan}
         if errors[q.column] and windows[q.column].size >= 2:
             z = np.array(errors[q.column])
             _, rho = _autocorrelation(z)
@@ -564,6 +571,8 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
             p = float(np.mean(f))
             spread = float(np.var(f))
             row |= {"chance_fraction": p, "chance_limit": float(np.quantile(f, level)),
+                    "chance_limit_all": float(np.quantile(
+                        f, 1.0 - (1.0 - level) / len(quantities))),
                     "effective_samples": (p * (1 - p) / spread if spread > 0 else math.nan)}
         out.append(row)
     return pd.DataFrame(out)
@@ -574,7 +583,12 @@ def _with_chance(table: pd.DataFrame, chance: pd.DataFrame, measured: pd.DataFra
     """``table`` with :data:`CHANCE_COLUMNS` filled from ``chance`` and the stretches
     outside the band."""
     table = table.merge(chance, on="quantity", how="left")
-    table["within_chance"] = table["outside_band_fraction"] <= table["chance_limit"]
+    outside = table["outside_band_fraction"]
+    table["within_chance"] = outside <= table["chance_limit"]
+    table["verdict"] = np.where(outside <= table["chance_limit"], "agrees",
+                                np.where(outside <= table["chance_limit_all"], "borderline",
+                                         "differs"))
+    table.loc[table["chance_limit"].isna(), "verdict"] = ""
     starts, ends, worst = [], [], []
     for q in QUANTITIES:
         rows = _window(q, measured, predicted)

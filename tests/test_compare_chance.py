@@ -107,6 +107,19 @@ def test_a_misaligned_model_is_found_to_differ(demo):
     table = tables["trigger"]
     assert (~table["within_chance"]).sum() >= 5, table
     assert not bool(table.loc[table["quantity"] == "E_M", "within_chance"].item())
+    assert (table["verdict"] == "differs").sum() >= 4, table[["quantity", "verdict"]]
+
+
+def test_ten_quantities_at_once_get_the_wider_limit(demo):
+    """One of ten quantities above its 95 % limit is chance too: "differs" takes the limit
+    for all ten at once (Bonferroni), "borderline" lies between."""
+    _, tables = demo
+    for table in tables.values():
+        assert (table["chance_limit_all"] >= table["chance_limit"]).all()
+        assert set(table["verdict"]) <= {"agrees", "borderline", "differs"}
+        outside = table["outside_band_fraction"]
+        assert ((table["verdict"] == "differs") == (outside > table["chance_limit_all"])).all()
+    assert (tables["fit"]["verdict"] != "differs").all(), tables["fit"]
 
 
 def test_the_first_screen_speaks_the_figures_units(demo):

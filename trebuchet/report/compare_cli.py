@@ -181,12 +181,11 @@ def _verdict_line(table: pd.DataFrame) -> str:
              f"up to {100 * s['worst_outside']:.3g} % of the shot outside ±2 sd")
     if "within_chance" not in table or table["chance_limit"].isna().all():
         return worst
-    differ = table.loc[~table["within_chance"].astype(bool), "quantity"].tolist()
+    differ = table.loc[table["verdict"] == "differs", "quantity"].tolist()
+    border = table.loc[table["verdict"] == "borderline", "quantity"].tolist()
+    also = f", {', '.join(border)} borderline" if border else ""
     if not differ:
-        return f"model and measurement agree within chance on all {len(table)} quantities; " \
-               + worst
+        return (f"model and measurement agree within chance on all {len(table)} quantities"
+                f"{also}; " + worst)
     return (f"model and measurement differ beyond chance in {len(differ)} of {len(table)} "
-            f"quantities ({', '.join(differ)}); " + worst)
-
-
-
+            f"quantities ({', '.join(differ)}{also}); " + worst)

@@ -43,6 +43,7 @@ td:first-child, th:first-child, td.text { text-align: left; }
 .verdict p { margin: 0.4em 0; }
 .verdict table { background: #fff; }
 tr.differ td { background: #fbd5d5; font-weight: bold; }
+tr.borderline td { background: #fff4e0; }
 .advisories { background: #fff4e0; border-left: 4px solid #e69500; padding: 0.5em 1em; }
 .small { font-size: 0.85em; color: #444; }
 details { margin: 1em 0; }

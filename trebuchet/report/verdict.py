@@ -64,23 +64,33 @@ NOMINAL = math.erfc(2.0 / math.sqrt(2.0))
 NARROW = 3.0
 
 
-def _where(row: pd.Series, release_ms: float | None) -> str:
-    """"agrees" or where and how the prediction leaves the band; a band that even a correct
-    model leaves far more often than nominal is said to be narrow."""
-    if not math.isfinite(row.get("chance_limit", math.nan)):
-        return "no verdict (chance not estimated)"
-    if row["within_chance"]:
-        if row["chance_fraction"] > NARROW * NOMINAL:
-            return (f"agrees, but the band is narrow: even a correct model leaves it on "
-                    f"{_pct(row['chance_fraction'])} of the rows")
-        return "agrees"
+def _stretch(row: pd.Series, release_ms: float | None) -> str:
     start, end = 1e3 * row["outside_start"], 1e3 * row["outside_end"]
     worst = row["outside_worst_sd"]
     side = "above" if worst > 0 else "below"
     when = f"{start:.0f}–{end:.0f} ms"
     if release_ms is not None and start > release_ms:
         when += " (after release)"
-    return f"differs: predicted {side} the band at {when}, by up to {abs(worst):.1f} sd"
+    return f"predicted {side} the band at {when}, by up to {abs(worst):.1f} sd"
+
+
+def _where(row: pd.Series, release_ms: float | None) -> str:
+    """"agrees", "borderline" or "differs", and where and how the prediction leaves the band;
+    a band that even a correct model leaves far more often than nominal is said to be
+    narrow."""
+    if not math.isfinite(row.get("chance_limit", math.nan)):
+        return "no verdict (chance not estimated)"
+    verdict = row.get("verdict") or ("agrees" if row["within_chance"] else "differs")
+    if verdict == "agrees":
+        if row["chance_fraction"] > NARROW * NOMINAL:
+            return (f"agrees, but the band is narrow: even a correct model leaves it on "
+                    f"{_pct(row['chance_fraction'])} of the rows")
+        return "agrees"
+    if verdict == "borderline":
+        limit = row.get("chance_limit_all", math.nan)
+        return (f"borderline: {_stretch(row, release_ms)}; more often than chance allows for "
+                f"one quantity, not for all ten at once (≤ {_pct(limit)})")
+    return f"differs: {_stretch(row, release_ms)}"
 
 
 def verdict_table(table: pd.DataFrame, scene: Scene, release_ms: float | None = None
@@ -101,7 +111,8 @@ def verdict_table(table: pd.DataFrame, scene: Scene, release_ms: float | None = 
                               if math.isfinite(r.get("chance_limit", math.nan)) else "–"),
             "verdict": _where(r, release_ms),
         })
-        classes.append("" if r.get("within_chance", True) else "differ")
+        verdict = r.get("verdict") or ("agrees" if r.get("within_chance", True) else "differs")
+        classes.append({"differs": "differ", "borderline": "borderline"}.get(verdict, ""))
     return pd.DataFrame(rows), classes
 
 
@@ -117,17 +128,28 @@ def verdict_html(table: pd.DataFrame, scene: Scene, *, release_ms: float | None 
                 "table gives the fraction of the shot outside the measured ±2 sd band.")
         css = ""
     else:
-        differ = table.loc[~table["within_chance"].astype(bool), "quantity"].tolist()
-        names = [DISPLAY.get(q, (q, ""))[0] for q in differ]
+        verdicts = (table["verdict"] if "verdict" in table else
+                    table["within_chance"].map({True: "agrees", False: "differs"}))
+        differ = [DISPLAY.get(q, (q, ""))[0] for q in table.loc[verdicts == "differs",
+                                                               "quantity"]]
+        border = [DISPLAY.get(q, (q, ""))[0] for q in table.loc[verdicts == "borderline",
+                                                               "quantity"]]
+        n = len(table)
         if not differ:
-            head = (f"Model and measurement agree: every one of the {len(table)} quantities "
-                    "stays within the measured ±2 sd band as often as chance allows.")
+            head = ("Model and measurement agree: "
+                    + (f"every one of the {n} quantities stays within the measured ±2 sd band "
+                       "as often as chance allows." if not border else
+                       f"no quantity leaves the measured ±2 sd band more often than chance "
+                       f"allows for {n} quantities at once; {', '.join(border)} "
+                       f"{'is' if len(border) == 1 else 'are'} borderline (more often than "
+                       "for a single quantity), where the table says."))
             css = "agree"
         else:
-            head = (f"Model and measurement differ in {len(differ)} of {len(table)} "
-                    f"quantities ({', '.join(names)}): the prediction leaves the measured "
-                    "±2 sd band more often than chance allows, where the table says; the "
-                    "others agree.")
+            head = (f"Model and measurement differ in {len(differ)} of {n} quantities "
+                    f"({', '.join(differ)}): the prediction leaves the measured ±2 sd band "
+                    f"more often than chance allows, where the table says"
+                    + (f"; {', '.join(border)} borderline" if border else "")
+                    + "; the others agree.")
             css = "differ"
     n_eff = table["effective_samples"] if "effective_samples" in table else None
     span = (f"{n_eff.min():.0f} to {n_eff.max():.0f}" if n_eff is not None
@@ -136,8 +158,11 @@ def verdict_html(table: pd.DataFrame, scene: Scene, *, release_ms: float | None 
            "neighbouring frames of a smoothed log share their errors, one shot holds only "
            f"{span} independent samples per quantity, so the outside fraction of one shot "
            f"varies widely: \u201cchance allows\u201d is its {100 * level:.0f} % limit, "
-           "found by reconstructing logs simulated from the model with this log's noise. A "
-           "quantity differs when its outside fraction is above that limit.")
+           "found by reconstructing logs simulated from the model with this log's noise. "
+           "Ten quantities are compared, so one of them above its limit now and then is "
+           "chance too: a quantity differs when it is above the limit for all ten at once "
+           f"({100 - (100 - 100 * level) / len(table):.1f} %), and is borderline between "
+           "the two.")
     return (f'<div class="verdict {css}" id="verdict"><p><strong>{esc(head)}</strong></p>'
             + table_html(short, css_class="main", stack=True, row_classes=classes)
             + f'<p class="small">{esc(why)}</p></div>')
@@ -161,6 +186,7 @@ def details_table(table: pd.DataFrame, scene: Scene) -> pd.DataFrame:
             "outside ±2 sd (%)": 100 * r["outside_band_fraction"],
             "chance: mean (%)": 100 * r.get("chance_fraction", math.nan),
             "chance: limit (%)": 100 * r.get("chance_limit", math.nan),
+            "chance: limit, all ten (%)": 100 * r.get("chance_limit_all", math.nan),
             "independent samples": r.get("effective_samples", math.nan),
             "rows": int(r["rows"]),
             "from (ms)": 1e3 * r["window_start"], "to (ms)": 1e3 * r["window_end"],
