@@ -183,9 +183,9 @@ def _verdict_line(table: pd.DataFrame) -> str:
         return worst
     differ = table.loc[table["verdict"] == "differs", "quantity"].tolist()
     border = table.loc[table["verdict"] == "borderline", "quantity"].tolist()
-    also = f", {', '.join(border)} borderline" if border else ""
+    also = f"; borderline: {', '.join(border)}" if border else ""
     if not differ:
         return (f"model and measurement agree within chance on all {len(table)} quantities"
-                f"{also}; " + worst)
+                f"{' (' + also[2:] + ')' if also else ''}; " + worst)
     return (f"model and measurement differ beyond chance in {len(differ)} of {len(table)} "
             f"quantities ({', '.join(differ)}{also}); " + worst)
