@@ -82,10 +82,14 @@ def _where(row: pd.Series, release_ms: float | None) -> str:
         return "no verdict (chance not estimated)"
     verdict = row.get("verdict") or ("agrees" if row["within_chance"] else "differs")
     if verdict == "agrees":
+        text = "agrees"
+        if math.isfinite(row.get("outside_start", math.nan)):
+            when = _stretch(row, release_ms).split(" at ", 1)[1]
+            text += f" (outside mostly at {when})"
         if row["chance_fraction"] > NARROW * NOMINAL:
-            return (f"agrees, but the band is narrow: even a correct model leaves it on "
-                    f"{_pct(row['chance_fraction'])} of the rows")
-        return "agrees"
+            text += (f"; but the band is narrow: even a correct model leaves it on "
+                     f"{_pct(row['chance_fraction'])} of the rows")
+        return text
     if verdict == "borderline":
         limit = row.get("chance_limit_all", math.nan)
         return (f"borderline: {_stretch(row, release_ms)}; more often than chance allows for "
