@@ -428,11 +428,9 @@ def _check_start_pose(r: _Reader, e: Engine, theta: float, psi: float, phi: floa
                      f"{-spigot_y:.3g} m below ground (pivot height H = {H:g} m)")
     cw_y = H - e.L2 * math.sin(theta) + e.L3 * math.sin(psi)
     if cw_y < 0.0:
-        lowest = H - e.L2 * math.sin(theta) - e.L3  # the counterweight hanging straight down
-        if lowest >= 0.0:  # a hanging counterweight would clear the ground: ψ is wrong
-            raise r.fail("start", key("psi"), f"{text('psi', psi)} puts the counterweight "
-                         f"{-cw_y:.3g} m below ground (pivot height H = {H:g} m)")
-        if H_given:  # no ψ clears the ground: the pivot is too low
+        # hanging straight down (ψ = −90°) is its lowest pose: below ground at some ψ means
+        # the pivot is too low for L3, whatever ψ; the key at fault sets the pivot's height
+        if H_given:
             raise r.fail("engine", "H", f"= {H:g} m: the pivot is too low for the "
                          f"counterweight (L3 = {e.L3:g} m) to hang above ground")
         hint = ""

@@ -174,3 +174,11 @@ def test_degrees_under_the_radian_key_report_that_key(tmp_path):
                                                   r"theta_deg = -50") as info:
         Scene.from_toml(path)
     assert "theta_deg:" not in str(info.value) and "2864" not in str(info.value)
+
+
+def test_a_counterweight_below_ground_blames_what_sets_the_pivots_height(tmp_path):
+    path = _scene_with(tmp_path, "engine", "L1 = 6.48", "L1 = 6.48\nH = 1.0")
+    text = path.read_text(encoding="utf-8").replace("theta_deg = -50.0", "theta_deg = -5.0")
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(TrebuchetInputError, match=r"\[engine\] H: = 1 m: the pivot is too low"):
+        Scene.from_toml(path)
