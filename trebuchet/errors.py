@@ -103,7 +103,10 @@ class Option:
         """``keyword=value`` (``repr`` of the value), or the keyword alone."""
         if self.value is _NOTHING:
             return self.keyword
-        return f"{self.keyword}={self.value!r}"
+        value = self.value
+        if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
+            value = int(value)  # fps=240, not fps=240.0
+        return f"{self.keyword}={value!r}"
 
     def cli(self) -> str:
         """``--flag value`` (quoted for a shell where needed), or the flag alone."""
