@@ -435,17 +435,25 @@ def outside_spans(t: np.ndarray, measured: np.ndarray, sd: np.ndarray, predicted
     return [sp[:3] for sp in spans]
 
 
-def _truth_log(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene) -> pd.DataFrame:
+def _truth_log(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
+               log: pd.DataFrame | None = None) -> pd.DataFrame:
     """The log the model says was filmed: its θ, ψ, φ at the log's rows, the start pose before
     the model's start, the measured (smoothed) angles after its end; gaps where the log has
-    none."""
+    none (``log``: the log as read, whose empty cells and lost tracks are copied, when its
+    rows are the measured ones; else where the measured angles are NaN)."""
     log = pd.DataFrame({"t": measured["t"].to_numpy(dtype=float)}, index=measured.index)
     lag = float(predicted.attrs.get("lag", 0.0))
     before = measured["t_shot"].to_numpy(dtype=float) - lag < 0.0
     start = {"theta": scene.start.theta, "psi": scene.start.psi, "phi": scene.start.phi}
+    same_rows = (log is not None and len(log) == len(measured) and "t" in log.columns
+                 and np.allclose(log["t"].to_numpy(dtype=float),
+                                 measured["t"].to_numpy(dtype=float), equal_nan=True))
     for a in ("theta", "psi", "phi"):
         values = measured[a].to_numpy(dtype=float).copy()
         have = np.isfinite(values)
+        if same_rows and a in log.columns:
+            have &= np.isfinite(log[a].to_numpy(dtype=float))
+        values[~have] = math.nan
         values[before & have] = start[a]
         if a in predicted.columns:
             model = predicted[a].reindex(measured.index).to_numpy(dtype=float)
@@ -516,7 +524,8 @@ def _gaussian_fractions(var: float, rho: np.ndarray, band_sd: float, draws: int,
 def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene, *,
                   runs: int = 12, band_sd: float = BAND_SD, level: float = 0.95,
                   seed: int = 0, draws: int = 4000,
-                  quantities: Sequence[Quantity] = QUANTITIES) -> pd.DataFrame:
+                  quantities: Sequence[Quantity] = QUANTITIES,
+                  log: pd.DataFrame | None = None) -> pd.DataFrame:
     """How often the prediction would leave the measured band if the model were right
     (module doc, "Chance"): one row per quantity with ``quantity`` and ``chance_fraction``,
     ``chance_limit`` (the ``level`` quantile), ``chance_limit_all`` (the 1 − (1 − level) / n
@@ -525,7 +534,9 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
     where the quantity has no compared rows).
 
     ``measured`` must come from :func:`~trebuchet.ingest.reconstruct.reconstruct` (its
-    ``attrs`` give the events, the noise per angle, the form and the trough setting).
+    ``attrs`` give the noise per angle, the form and the trough setting); ``log``, the log
+    it was reconstructed from, gives the simulated logs its gaps (a lost sling track stays
+    lost).
     """
     from trebuchet.ingest.reconstruct import reconstruct
 
@@ -533,7 +544,7 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
     noise = a.get("noise") or {}
     # every event is found in each simulated log as in the real one: their errors and sd
     # shape the loads and bands of the frames around them
-    truth = _truth_log(measured, predicted, scene)
+    truth = _truth_log(measured, predicted, scene, log)
     rng = np.random.default_rng(seed)
     windows = {q.column: _window(q, measured, predicted) for q in quantities}
     errors: dict[str, list[np.ndarray]] = {q.column: [] for q in quantities}
@@ -670,7 +681,9 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
         say(f"estimating what chance allows from {options.chance_runs} simulated logs")
         chance = chance_levels(measured, predicted, predicted.attrs["scene"],
                                runs=options.chance_runs, band_sd=options.band_sd,
-                               level=options.chance_level, seed=options.seed)
+                               level=options.chance_level, seed=options.seed,
+                               log=log_or_path if isinstance(log_or_path, pd.DataFrame)
+                               else None)
         attrs = dict(table.attrs)
         table = _with_chance(table, chance, measured, predicted, options.band_sd)
         table.attrs.update(attrs)
