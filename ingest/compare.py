@@ -71,6 +71,10 @@ __all__ = ["Quantity", "QUANTITIES", "METRIC_COLUMNS", "CONTRACT_COLUMNS", "CHAN
            "compare_measured", "compare"]
 
 RELEASE_MODES = ("auto", "log", "scene")
+#: The keywords of ``read_log`` among the options a caller passes on (the log is read
+#: first, then reconstructed, so that ``reconstruct`` needs none of them).
+READ_LOG_KEYWORDS = ("fps", "columns", "points", "time_unit", "angle_unit", "min_likelihood",
+                     "individual", "calibration")
 ATTRS = ("lag", "angle_chi2", "alignment", "release_rule")
 ALIGN_MODES = ("fit", "trigger")
 
@@ -668,8 +672,7 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     if isinstance(log_or_path, str | Path):  # read first: a bad log is refused before progress
         from trebuchet.ingest.logs.read_log import read_log
 
-        keys = ("fps", "columns", "points", "min_likelihood", "time_unit", "angle_unit",
-                "individual", "calibration")
+        keys = READ_LOG_KEYWORDS
         log_or_path = read_log(log_or_path, **{k: reconstruct_options.pop(k) for k in keys
                                                if k in reconstruct_options})
     say(f"reconstructing the loads of {name}")

@@ -216,3 +216,10 @@ def test_the_license_is_an_spdx_string_setuptools_does_not_warn_about():
     data = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
     assert data["project"]["license"] == "MIT"
     assert any(r.startswith("setuptools>=77") for r in data["build-system"]["requires"])
+
+
+def test_read_log_options_reach_the_reader_in_forces(tmp_path, capsys):
+    """--time-unit, --angle-unit, ... are read_log's: the log is read with them first."""
+    code = main(["forces", str(SAMPLES / "horsdal_240fps.csv"), "--scene", str(HORSDAL),
+                 "-o", str(tmp_path / "x.csv"), "--time-unit", "s", "--angle-unit", "deg"])
+    assert code == 0, capsys.readouterr().err
