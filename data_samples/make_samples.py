@@ -510,6 +510,37 @@ TRACKED_VIDEO = (
      "`horsdal_large.toml`) with a header naming the camera."),
 )
 
+#: The README's section on reading each sample from the command line (issue 17: the hints
+#: and this page speak the shell user's options, not only Python's keywords).
+COMMAND_LINE = [
+    '## On the command line',
+    '',
+    'Every `Read:` call above has its command-line form; `forces` and `compare` take the same',
+    'options (`compare` writes a report folder instead of a CSV file):',
+    '',
+    '    S=data_samples',
+    '    trebuchet forces $S/horsdal_240fps.csv --scene $S/horsdal_large.toml -o loads.csv',
+    '    trebuchet forces $S/horsdal_tracker.txt --scene $S/horsdal_large.toml -o loads.csv \\',
+    '        --column beam=theta --column arm=psi --column sling=phi',
+    '    trebuchet forces $S/horsdal_tracker_multi_decimal_comma.txt '
+    '--scene $S/horsdal_large.toml \\',
+    '        -o loads.csv --column Balken=theta --column Arm=psi --column Schlinge=phi',
+    '    trebuchet forces $S/horsdal_kinovea.csv --scene $S/horsdal_large.toml -o loads.csv \\',
+    '        --fps 240 --point pivot=axle --point spigot=tip --point hinge=hinge \\',
+    '        --point counterweight=Weight --point projectile=Stone',
+    '    trebuchet forces $S/horsdal_dlc.csv --scene $S/horsdal_large.toml -o loads.csv \\',
+    '        --fps 120 --point pivot=axle --point spigot=arm_tip --point hinge=hinge \\',
+    '        --point counterweight=weight --point projectile=stone     # --min-likelihood 0.9',
+    '    trebuchet forces $S/backyard_240fps.csv --scene $S/backyard.toml -o loads.csv',
+    '    trebuchet compare $S/horsdal_dlc.csv --scene $S/horsdal_large.toml -o report/ \\',
+    '        --fps 120 --point pivot=axle ...  '
+    '# the same options, and --trigger, --lift-off, --release',
+    '',
+    "Without the naming options a file whose names are not the angles' own is refused with the",
+    'option that names them (`--column`, `--point`, `--fps`); from Python the same refusal names',
+    'the keyword (`columns=`, `points=`, `fps=`).',
+]
+
 
 def readme_text(samples: list[Sample]) -> str:
     """The README of the samples: what is synthetic, how each file was made and is read."""
@@ -540,7 +571,7 @@ def readme_text(samples: list[Sample]) -> str:
     for s in samples:
         lines.append(f"| `{s.name}` | {s.readme} |")
     lines += [f"| `{name}` | {text} |" for name, text in TRACKED_VIDEO]
-    lines += [
+    lines += [""] + COMMAND_LINE + [
         "",
         "Angle noise of the point files follows from the position noise: about "
         "√2 σ / L for an angle between two points L apart (θ: L1, ψ: L3, φ: L4).",

@@ -10,14 +10,16 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import TrebuchetInputError, cli_command
 from trebuchet.ingest.reconstruct import FORMS, TROUGH, reconstruct
 from trebuchet.output import check_target, write_csv
 
-__all__ = ["register", "forces_summary", "parse_pairs", "add_log_arguments", "log_options"]
+__all__ = ["register", "forces_summary", "parse_pairs", "add_log_arguments", "log_options",
+           "add_reconstruct_arguments", "reconstruct_options", "EVENT_OPTIONS"]
 
 ANGLE_NAMES = ("theta", "psi", "phi")
 POINT_ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
+EVENT_OPTIONS = ("trigger", "lift-off", "release")
 SUMMARY_LOADS = (("F_R_abs", "|F_R|", "N"), ("F_H_abs", "|F_H|", "N"),
                  ("F_S_abs", "|F_S|", "N"), ("torque", "torque", "N m"))
 
@@ -27,17 +29,34 @@ def register(sub: argparse._SubParsersAction) -> None:
         "forces", help="internal forces, with their sd, from a video angle log",
         description="Read an angle log, smooth it, find trigger, lift-off and release, and "
                     "write every force, torque and power with its standard deviation.")
-    add_log_arguments(p)
+    add_reconstruct_arguments(p)
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.set_defaults(run=_forces)
+
+
+def add_reconstruct_arguments(p: argparse.ArgumentParser) -> None:
+    """Every argument of ``forces`` but its output: the log arguments
+    (:func:`add_log_arguments`), ``--form``, ``--trough`` and the event times ``--trigger``,
+    ``--lift-off``, ``--release``. ``compare`` adds exactly these too (docs/interface.md:
+    it takes every option ``forces`` takes, with the same names and meanings); read them
+    back with :func:`reconstruct_options`."""
+    add_log_arguments(p)
     p.add_argument("--form", choices=FORMS, default=None,
                    help="force formulas: projected on the arms (default) or the paper's direct")
     p.add_argument("--trough", choices=TROUGH, default=None,
                    help="phase-I sling angle from the trough constraint (default) or measured")
-    for event in ("trigger", "lift-off", "release"):
+    for event in EVENT_OPTIONS:
         p.add_argument(f"--{event}", metavar="SECONDS",
                        help=f"{event} time in the log's time (s), or 'none'; default: found "
                             "in the data")
-    p.set_defaults(run=_forces)
+
+
+def reconstruct_options(args: argparse.Namespace) -> dict[str, object]:
+    """The keywords of :func:`~trebuchet.ingest.reconstruct.reconstruct` from the arguments
+    of :func:`add_reconstruct_arguments`: ``fps``, ``columns``, ``points``, ``events``,
+    ``form``, ``trough``; each checked with an error naming its option."""
+    return log_options(args) | {"events": _event_args(args), "form": args.form,
+                                "trough": args.trough}
 
 
 def add_log_arguments(p: argparse.ArgumentParser) -> None:
@@ -189,13 +208,13 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     return "\n".join(lines)
 
 
+@cli_command
 def _forces(args: argparse.Namespace) -> int:
     check_target(args.output)
-    options = log_options(args)
+    options = reconstruct_options(args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = reconstruct(args.log, args.scene, **options, events=_event_args(args),
-                             form=args.form, trough=args.trough)
+        result = reconstruct(args.log, args.scene, **options)
     write_csv(result, args.output)
     summary = forces_summary(result, args.output)
     print(summary)

@@ -30,6 +30,23 @@ finite sd and a prediction; quantities that exist only while the projectile is h
 sling force, the projectile's power and energy) from the trigger to the log's release, the
 others (beam, counterweight, bearing) on after release as far as both frames go. A peak is
 the value of greatest magnitude, sign kept, on those rows (so its time is a frame time).
+
+**Chance** (:func:`chance_levels`). Where the model is right, the prediction still leaves
+the measured ±2 sd band on some rows: 4.6 % of them on average for Gaussian errors. But
+neighbouring rows of a smoothed log share their errors (the smoother averages over several
+frames), so the outside fraction of one shot varies far more than a binomial count over
+rows would: a band of 280 rows holds only some 20 to 40 independent samples. The spread is
+estimated by simulation: the model's own angles, with the log's measured noise added, are
+reconstructed ``runs`` times as the log was (the same pipeline: events found, noise
+searched); the normalised errors ``(reconstructed − model) / sd`` of each quantity give how
+often a correct model leaves the band (counted over all runs and rows) and the errors'
+autocorrelation, and 4000 Gaussian series with that correlation, scaled to leave the band
+as often, give the distribution of the outside fraction (a correct model's, the
+pipeline's biases included: where the band is too narrow for the error, a correct model
+leaves it more often, and chance allows more).
+The prediction lies *within chance* when its outside fraction is at most that
+distribution's ``level`` quantile (95 %); ``effective_samples`` is the number of
+independent rows that would give the same spread (p(1 − p) / variance).
 """
 
 from __future__ import annotations
@@ -48,11 +65,16 @@ from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import Trajectory, integrate, simulate
 from trebuchet.model.timeline import shot_events
 
-__all__ = ["Quantity", "QUANTITIES", "METRIC_COLUMNS", "CONTRACT_COLUMNS", "CompareOptions",
-           "RELEASE_MODES", "ALIGN_MODES", "release_rule", "fit_lag", "predict", "metrics",
-           "metric_row", "event_table", "compare_measured", "compare"]
+__all__ = ["Quantity", "QUANTITIES", "METRIC_COLUMNS", "CONTRACT_COLUMNS", "CHANCE_COLUMNS",
+           "CompareOptions", "RELEASE_MODES", "ALIGN_MODES", "release_rule", "fit_lag",
+           "predict", "metrics", "metric_row", "event_table", "outside_spans", "chance_levels",
+           "compare_measured", "compare"]
 
 RELEASE_MODES = ("auto", "log", "scene")
+#: The keywords of ``read_log`` among the options a caller passes on (the log is read
+#: first, then reconstructed, so that ``reconstruct`` needs none of them).
+READ_LOG_KEYWORDS = ("fps", "columns", "points", "time_unit", "angle_unit", "min_likelihood",
+                     "individual", "calibration")
 ATTRS = ("lag", "angle_chi2", "alignment", "release_rule")
 ALIGN_MODES = ("fit", "trigger")
 
@@ -75,7 +97,7 @@ QUANTITIES: tuple[Quantity, ...] = (
     Quantity("F_R_abs", "|F_R|, bearing reaction at the pivot", "N"),
     Quantity("F_R_x", "F_R_x, horizontal component of the bearing reaction", "N"),
     Quantity("F_R_perp", "F_R⊥, bearing reaction across the beam", "N"),
-    Quantity("torque", "N, torque on the beam about the pivot", "N m"),
+    Quantity("torque", "torque on the beam about the pivot (the paper's N)", "N m"),
     Quantity("P_m", "P_m, rate of work on the projectile", "W", held=True),
     Quantity("E_m", "E_m, energy gained by the projectile", "J", held=True),
     Quantity("E_M", "E_M, energy gained by the counterweight", "J"),
@@ -92,7 +114,21 @@ differences); ``measured_peak_sd`` (sd of the measured value at its peak row);
 ``measured_peak_time``, ``predicted_peak_time`` (s after the trigger);
 ``peak_time_difference`` (predicted − measured, s); ``peak_difference_in_sd``
 ((predicted − measured peak) / measured_peak_sd); ``rows`` compared and the window
-``window_start``, ``window_end`` (s after the trigger)."""
+``window_start``, ``window_end`` (s after the trigger); then :data:`CHANCE_COLUMNS` when
+the chance levels were estimated."""
+
+CHANCE_COLUMNS = ["chance_fraction", "chance_limit", "chance_limit_all", "effective_samples",
+                  "within_chance", "verdict", "outside_start", "outside_end",
+                  "outside_worst_sd"]
+"""Added to metrics.csv by :func:`compare` (``CompareOptions.chance_runs`` > 0):
+``chance_fraction`` (mean outside fraction where the model is right), ``chance_limit`` (its
+95 % quantile), ``effective_samples`` (independent rows giving that spread),
+``chance_limit_all`` (its 1 − 0.05 / 10 quantile: the limit that a correct model's ten
+quantities all stay within 95 % of the time), ``within_chance`` (outside_band_fraction ≤
+chance_limit), ``verdict`` ("agrees"; "borderline": above chance_limit, not above
+chance_limit_all; "differs": above chance_limit_all), ``outside_start``,
+``outside_end`` (s after the trigger: the longest stretch of rows outside the band) and
+``outside_worst_sd`` (the largest (predicted − measured) / sd there, sign kept)."""
 
 
 @dataclass(frozen=True)
@@ -101,6 +137,8 @@ class CompareOptions:
 
     ``release``: "auto", "log" or "scene" (module doc). ``band_sd``: half-width of the
     measured band in sd (the figures' band). ``rtol``: the simulator's tolerance or preset.
+    ``chance_runs``: simulated logs for :func:`chance_levels` (0: none, no verdict);
+    ``chance_level``: the quantile that bounds chance; ``seed``: of those simulations.
     """
 
     release: str = "auto"
@@ -108,6 +146,9 @@ class CompareOptions:
     max_lag: float = 0.1
     band_sd: float = BAND_SD
     rtol: float | str = "default"
+    chance_runs: int = 12
+    chance_level: float = 0.95
+    seed: int = 0
 
     def __post_init__(self) -> None:
         check_choice("compare", "align", self.align, ALIGN_MODES)
@@ -116,6 +157,12 @@ class CompareOptions:
         check_choice("compare", "release", self.release, RELEASE_MODES)
         if not (math.isfinite(self.band_sd) and self.band_sd > 0):
             raise TrebuchetInputError(f"compare: band_sd = {self.band_sd!r} must be > 0")
+        if not (isinstance(self.chance_runs, int) and 0 <= self.chance_runs <= 1000):
+            raise TrebuchetInputError(f"compare: chance_runs = {self.chance_runs!r} must be a "
+                                      "whole number from 0 to 1000")
+        if not 0.5 < self.chance_level < 1.0:
+            raise TrebuchetInputError(f"compare: chance_level = {self.chance_level!r} must lie "
+                                      "between 0.5 and 1")
 
 
 # ----------------------------------------------------------------------------- prediction
@@ -132,11 +179,13 @@ def _log_release_after_trigger(measured: pd.DataFrame) -> float | None:
                              float(measured["t"].iloc[0]))
 
 
-def release_rule(scene: Scene, log_release: float | None, mode: str = "auto"
-                 ) -> tuple[Scene, str]:
+def release_rule(scene: Scene, log_release: float | None, mode: str = "auto", *,
+                 lag: float = 0.0) -> tuple[Scene, str]:
     """The scene to simulate and a sentence saying which release rule it uses.
 
-    ``log_release``: the log's release, s after the trigger (None: the log shows none).
+    ``log_release``: the log's release, s after the model's start (None: the log shows
+    none); ``lag``: the model's start after the log's detected trigger (s), so that the
+    sentence gives the release on both clocks.
     ``mode``: "auto" replaces a time rule by the log's release and keeps a velocity-angle
     rule; "log" always takes the log's release; "scene" keeps the scene's rule.
     """
@@ -154,9 +203,11 @@ def release_rule(scene: Scene, log_release: float | None, mode: str = "auto"
     take_log = log_release is not None and (
         mode == "log" or (mode == "auto" and rel.velocity_angle is None))
     if take_log:
+        clocks = (f"{1e3 * (log_release + lag):.1f} ms after the log's trigger"
+                  + (f", {1e3 * log_release:.1f} ms after the model's start" if lag else ""))
         return (scene.with_release(time=log_release),
-                f"released when the log shows release, {log_release:.4g} s after the "
-                f"trigger (the scene's rule, {own}, replaced)")
+                f"released when the log shows release ({clocks}; the scene's rule, {own}, "
+                "replaced)")
     why = {"scene": "kept as asked",
            "auto": ("the log shows no release" if log_release is None
                     else "a velocity-angle rule is the scene's own"),
@@ -246,7 +297,7 @@ def predict(scene: Scene, measured: pd.DataFrame, options: CompareOptions | None
             alignment += f", at the limit of the search (±{1e3 * options.max_lag:g} ms)"
     alignment += f"; angle residuals {chi2:.3g} sd² per row"
     used, sentence = release_rule(scene, None if log_release is None else log_release - lag,
-                                  options.release)
+                                  options.release, lag=lag)
     t_end = integrate(used, rtol=options.rtol).t_end
     t_shot = measured["t_shot"].to_numpy(dtype=float)
     tau = t_shot - lag
@@ -361,6 +412,218 @@ def event_table(measured: pd.DataFrame, predicted: pd.DataFrame) -> pd.DataFrame
                                        "difference"])
 
 
+# ----------------------------------------------------------------------------- chance
+
+
+def outside_spans(t: np.ndarray, measured: np.ndarray, sd: np.ndarray, predicted: np.ndarray,
+                  band_sd: float = BAND_SD) -> list[tuple[float, float, float]]:
+    """Stretches of rows where the prediction leaves the measured band, longest first:
+    ``(start, end, worst)`` with times as ``t`` and ``worst`` the (predicted − measured) / sd
+    of greatest magnitude in the stretch (sign kept). A single row inside the band does not
+    split a stretch."""
+    with np.errstate(all="ignore"):
+        z = (predicted - measured) / sd
+    out_rows = np.abs(z) > band_sd
+    idx = np.flatnonzero(out_rows)
+    if idx.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(idx) > 2)
+    starts = np.concatenate(([idx[0]], idx[breaks + 1]))
+    ends = np.concatenate((idx[breaks], [idx[-1]]))
+    spans = []
+    for a, b in zip(starts, ends, strict=True):
+        zz = z[a:b + 1]
+        k = int(np.nanargmax(np.abs(zz)))
+        spans.append((float(t[a]), float(t[b]), float(zz[k]), int(b - a + 1)))
+    spans.sort(key=lambda sp: -sp[3])
+    return [sp[:3] for sp in spans]
+
+
+def _truth_log(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
+               log: pd.DataFrame | None = None) -> pd.DataFrame:
+    """The log the model says was filmed: its θ, ψ, φ at the log's rows, the start pose before
+    the model's start, the measured (smoothed) angles after its end; gaps where the log has
+    none (``log``: the log as read, whose empty cells and lost tracks are copied, when its
+    rows are the measured ones; else where the measured angles are NaN)."""
+    log = pd.DataFrame({"t": measured["t"].to_numpy(dtype=float)}, index=measured.index)
+    lag = float(predicted.attrs.get("lag", 0.0))
+    before = measured["t_shot"].to_numpy(dtype=float) - lag < 0.0
+    start = {"theta": scene.start.theta, "psi": scene.start.psi, "phi": scene.start.phi}
+    same_rows = (log is not None and len(log) == len(measured) and "t" in log.columns
+                 and np.allclose(log["t"].to_numpy(dtype=float),
+                                 measured["t"].to_numpy(dtype=float), equal_nan=True))
+    for a in ("theta", "psi", "phi"):
+        values = measured[a].to_numpy(dtype=float).copy()
+        have = np.isfinite(values)
+        if same_rows and a in log.columns:
+            have &= np.isfinite(log[a].to_numpy(dtype=float))
+        values[~have] = math.nan
+        values[before & have] = start[a]
+        if a in predicted.columns:
+            model = predicted[a].reindex(measured.index).to_numpy(dtype=float)
+            use = np.isfinite(model) & have
+            values[use] = model[use]
+        log[a] = values
+    return log.reset_index(drop=True)
+
+
+def _autocorrelation(z: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(variance, rho)`` of standardised errors ``z`` (runs × rows; NaN = no value), pooled
+    over runs; ``rho`` is cut to zero from its first non-positive lag on. Values beyond four
+    robust sd (1.4826 × median absolute value) are clipped there first, so that a few large
+    errors (next to an event) do not set the correlation of the rest."""
+    ok = np.isfinite(z)
+    if not ok.any():
+        return math.nan, np.ones(1)
+    scale = 1.4826 * float(np.median(np.abs(z[ok]))) or 1.0
+    zz = np.where(ok, np.clip(z, -4 * scale, 4 * scale), 0.0)
+    n = z.shape[1]
+    var = float(np.sum(zz * zz) / max(ok.sum(), 1))
+    rho = np.zeros(n)
+    rho[0] = 1.0
+    for k in range(1, n):
+        both = ok[:, k:] & ok[:, :-k]
+        if both.sum() < 10:
+            break
+        c = float(np.sum(zz[:, k:] * zz[:, :-k]) / both.sum()) / var
+        if c <= 0.0:
+            break
+        rho[k] = c
+    return var, rho
+
+
+def _exceedance_scale(z: np.ndarray, band_sd: float) -> tuple[float, float]:
+    """``(p, sd)``: how often the simulated errors ``z`` leave ±``band_sd`` (counted, with
+    one added to either side: (k + 1) / (N + 2), never 0 or 1 from a finite sample), and the
+    sd of a Gaussian error that leaves it as often."""
+    from scipy.special import ndtri
+
+    ok = np.isfinite(z)
+    k, n = int(np.sum(np.abs(z[ok]) > band_sd)), int(ok.sum())
+    p = (k + 1) / (n + 2)
+    return p, band_sd / float(ndtri(1.0 - p / 2.0))
+
+
+def _gaussian_fractions(var: float, rho: np.ndarray, band_sd: float, draws: int,
+                        rng: np.random.Generator) -> np.ndarray:
+    """Outside fractions of ``draws`` stationary Gaussian series (variance ``var``,
+    autocorrelation ``rho``, as long as ``rho``) beyond ±``band_sd``: circulant embedding,
+    negative eigenvalues clipped."""
+    n = rho.size
+    m = 1 << int(math.ceil(math.log2(2 * n)))
+    c = np.zeros(m)
+    c[:n] = rho
+    c[m - n + 1:] = rho[1:][::-1]
+    lam = np.clip(np.fft.fft(c).real, 0.0, None)
+    fractions = []
+    for start in range(0, draws, 1000):
+        k = min(1000, draws - start)
+        w = rng.standard_normal((k, m)) + 1j * rng.standard_normal((k, m))
+        x = np.fft.fft(np.sqrt(lam / m) * w, axis=1)
+        series = np.concatenate((x.real[:, :n], x.imag[:, :n])) * math.sqrt(var)
+        fractions.append(np.mean(np.abs(series) > band_sd, axis=1))
+    return np.concatenate(fractions)[:draws]
+
+
+def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene, *,
+                  runs: int = 12, band_sd: float = BAND_SD, level: float = 0.95,
+                  seed: int = 0, draws: int = 4000,
+                  quantities: Sequence[Quantity] = QUANTITIES,
+                  log: pd.DataFrame | None = None) -> pd.DataFrame:
+    """How often the prediction would leave the measured band if the model were right
+    (module doc, "Chance"): one row per quantity with ``quantity`` and ``chance_fraction``,
+    ``chance_limit`` (the ``level`` quantile), ``chance_limit_all`` (the 1 − (1 − level) / n
+    quantile for the n quantities: Bonferroni, so that a correct model's n quantities all
+    stay within their limits at least ``level`` of the time), ``effective_samples`` (NaN
+    where the quantity has no compared rows).
+
+    ``measured`` must come from :func:`~trebuchet.ingest.reconstruct.reconstruct` (its
+    ``attrs`` give the noise per angle, the form and the trough setting); ``log``, the log
+    it was reconstructed from, gives the simulated logs its gaps (a lost sling track stays
+    lost).
+    """
+    from trebuchet.ingest.reconstruct import reconstruct
+
+    a = measured.attrs
+    noise = a.get("noise") or {}
+    # every event is found in each simulated log as in the real one: their errors and sd
+    # shape the loads and bands of the frames around them
+    truth = _truth_log(measured, predicted, scene, log)
+    rng = np.random.default_rng(seed)
+    windows = {q.column: _window(q, measured, predicted) for q in quantities}
+    errors: dict[str, list[np.ndarray]] = {q.column: [] for q in quantities}
+    import warnings
+
+    for _ in range(runs):
+        log = truth.copy()
+        for angle in ("theta", "psi", "phi"):
+            r_sd = float((noise.get(angle) or {}).get("r_sd", math.nan))
+            if math.isfinite(r_sd):
+                log[angle] = log[angle] + r_sd * rng.standard_normal(len(log))
+        log.attrs["source"] = "a simulated log of the model"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                sim = reconstruct(log, scene, form=a.get("form"), trough=a.get("trough"))
+            except TrebuchetInputError:
+                continue
+        sim.index = measured.index
+        for q in quantities:
+            rows = windows[q.column]
+            with np.errstate(all="ignore"):
+                z = ((sim.loc[rows, q.column] - predicted.loc[rows, q.column])
+                     / sim.loc[rows, q.column + "_sd"]).to_numpy(dtype=float)
+            errors[q.column].append(z)
+    out = []
+    for q in quantities:
+        row = {"quantity": q.column, "chance_fraction": math.nan, "chance_limit": math.nan,
+               "chance_limit_all": math.nan, "effective_samples": math.nan}
+        if errors[q.column] and windows[q.column].size >= 2:
+            z = np.array(errors[q.column])
+            _, rho = _autocorrelation(z)
+            _, sd = _exceedance_scale(z, band_sd)
+            f = _gaussian_fractions(sd * sd, rho, band_sd, draws, rng)
+            p = float(np.mean(f))
+            spread = float(np.var(f))
+            row |= {"chance_fraction": p, "chance_limit": float(np.quantile(f, level)),
+                    "chance_limit_all": float(np.quantile(
+                        f, 1.0 - (1.0 - level) / len(quantities))),
+                    "effective_samples": (p * (1 - p) / spread if spread > 0 else math.nan)}
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def _with_chance(table: pd.DataFrame, chance: pd.DataFrame, measured: pd.DataFrame,
+                 predicted: pd.DataFrame, band_sd: float) -> pd.DataFrame:
+    """``table`` with :data:`CHANCE_COLUMNS` filled from ``chance`` and the stretches
+    outside the band."""
+    table = table.merge(chance, on="quantity", how="left")
+    outside = table["outside_band_fraction"]
+    table["within_chance"] = outside <= table["chance_limit"]
+    table["verdict"] = np.where(outside <= table["chance_limit"], "agrees",
+                                np.where(outside <= table["chance_limit_all"], "borderline",
+                                         "differs"))
+    table.loc[table["chance_limit"].isna(), "verdict"] = ""
+    starts, ends, worst = [], [], []
+    for q in QUANTITIES:
+        rows = _window(q, measured, predicted)
+        m = measured.loc[rows]
+        spans = outside_spans(m["t_shot"].to_numpy(dtype=float),
+                              m[q.column].to_numpy(dtype=float),
+                              m[q.column + "_sd"].to_numpy(dtype=float),
+                              predicted.loc[rows, q.column].to_numpy(dtype=float), band_sd)
+        first = spans[0] if spans else (math.nan, math.nan, math.nan)
+        starts.append(first[0])
+        ends.append(first[1])
+        worst.append(first[2])
+    by = {q.column: i for i, q in enumerate(QUANTITIES)}
+    order = [by.get(c) for c in table["quantity"]]
+    for name, values in (("outside_start", starts), ("outside_end", ends),
+                         ("outside_worst_sd", worst)):
+        table[name] = [values[i] if i is not None else math.nan for i in order]
+    return table[METRIC_COLUMNS + CHANCE_COLUMNS]
+
+
 # ----------------------------------------------------------------------------- entry points
 
 
@@ -384,14 +647,16 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     ----------
     log_or_path : a log file or a DataFrame of angles (as for ``reconstruct``).
     scene : the engine filmed (a Scene or a scene file).
-    options : :class:`CompareOptions` (release rule, alignment, band width, tolerance).
+    options : :class:`CompareOptions` (release rule, alignment, band width, tolerance,
+        chance runs).
     progress : told each step before it runs (reconstructing takes seconds).
     **reconstruct_options : passed to :func:`~trebuchet.ingest.reconstruct.reconstruct`
         (``fps``, ``columns``, ``points``, ``events``, ``form``, ...).
 
     Returns
     -------
-    ``(metrics, measured, predicted)``: the table of :func:`metrics` (``attrs``: ``lag``,
+    ``(metrics, measured, predicted)``: the table of :func:`metrics`, with
+    :data:`CHANCE_COLUMNS` when ``options.chance_runs`` > 0 (``attrs``: ``lag``,
     ``angle_chi2``, ``alignment``, ``release_rule``), the reconstructed frame (log time
     ``t``, ``t_shot``, loads and their sd) and the simulation at the measured rows (same
     index and ``t_shot``; ``t`` is model time, see :func:`predict`).
@@ -407,12 +672,22 @@ def compare(log_or_path: str | Path | pd.DataFrame, scene: Scene | str | Path, *
     if isinstance(log_or_path, str | Path):  # read first: a bad log is refused before progress
         from trebuchet.ingest.logs.read_log import read_log
 
-        keys = ("fps", "columns", "points", "min_likelihood", "time_unit", "angle_unit",
-                "individual", "calibration")
+        keys = READ_LOG_KEYWORDS
         log_or_path = read_log(log_or_path, **{k: reconstruct_options.pop(k) for k in keys
                                                if k in reconstruct_options})
     say(f"reconstructing the loads of {name}")
     measured = reconstruct(log_or_path, scene, **reconstruct_options)
     say(f"simulating {scene.source} at the log's {len(measured)} frames")
+    options = options or CompareOptions()
     table, predicted = compare_measured(measured, scene, options)
+    if options.chance_runs > 0:
+        say(f"estimating what chance allows from {options.chance_runs} simulated logs")
+        chance = chance_levels(measured, predicted, predicted.attrs["scene"],
+                               runs=options.chance_runs, band_sd=options.band_sd,
+                               level=options.chance_level, seed=options.seed,
+                               log=log_or_path if isinstance(log_or_path, pd.DataFrame)
+                               else None)
+        attrs = dict(table.attrs)
+        table = _with_chance(table, chance, measured, predicted, options.band_sd)
+        table.attrs.update(attrs)
     return table, measured, predicted

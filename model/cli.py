@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from trebuchet.errors import cli_command
 from trebuchet.model.paper import horsdal_scene_path, paper_comparison
 from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
+from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
+from trebuchet.model.sweep import accuracy_option, output_step
 from trebuchet.output import check_target, write_csv
 
 
@@ -16,8 +18,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Simulate a shot of SCENE and write the contract's columns.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
-    p.add_argument("--dt", type=float, default=1e-3, help="output step in s (default 0.001)")
-    p.add_argument("--accuracy", default="default", type=_accuracy,
+    p.add_argument("--dt", type=output_step, default=1e-3,
+                   help="output step in s, up to 0.1 (default 0.001)")
+    p.add_argument("--accuracy", "--rtol", dest="accuracy", default="default", type=accuracy_option,
                    help="fast, default, precise, or a relative tolerance such as 1e-8 "
                    f"(default: {DEFAULT_RTOL:g})")
     p.add_argument("--after-release", type=float, default=DEFAULT_AFTER_RELEASE,
@@ -32,16 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=_paper)
 
 
-def _accuracy(text: str) -> float | str:
-    if text in ACCURACY:
-        return text
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: give fast, default, precise or a number"
-                                         ) from None
-
-
+@cli_command
 def _simulate(args: argparse.Namespace) -> int:
     check_target(args.output)
     scene = Scene.from_toml(args.scene)
@@ -78,6 +72,7 @@ def format_paper_table(table, markdown: bool = False) -> str:
                      + (f"  {r[6]}" if r[6] else "") for r in rows)
 
 
+@cli_command
 def _paper(args: argparse.Namespace) -> int:
     if args.output:
         check_target(args.output)

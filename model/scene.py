@@ -276,6 +276,18 @@ class _Reader:
                             + ", ".join(repr(o) for o in options))
         return value
 
+    @staticmethod
+    def angle_key(name: str, sec: dict[str, Any]) -> str:
+        """The key the file uses for the angle ``name``: ``name_deg`` or ``name`` (rad)."""
+        return name if name in sec and f"{name}_deg" not in sec else f"{name}_deg"
+
+    @staticmethod
+    def angle_text(name: str, sec: dict[str, Any], value: float) -> str:
+        """``= -50°`` or ``= -0.873 rad``: ``value`` (rad) in the unit of the key written."""
+        if _Reader.angle_key(name, sec) == name:
+            return f"= {value:g} rad ({math.degrees(value):.4g}°)"
+        return f"= {math.degrees(value):g}°"
+
     def angle(self, section: str, name: str, sec: dict[str, Any]) -> float | None:
         """An angle given as ``name_deg`` (degrees) or ``name`` (rad); returns rad or None."""
         has_deg, has_rad = f"{name}_deg" in sec, name in sec
@@ -322,9 +334,11 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
     else:
         I = default_moment_of_inertia(m_b, L1, L2)
     if M * L2 <= m_b * L_CM:
-        raise r.fail("engine", "M", f"= {M:g} kg cannot lift the beam: the counterweight's "
-                     f"moment M L2 = {M * L2:g} kg m must exceed the beam's m_b L_CM = "
-                     f"{m_b * L_CM:g} kg m")
+        # a beam ten times its counterweight is a typo in m_b; else the counterweight is light
+        key, value = ("m_b", m_b) if m_b > 10.0 * M else ("M", M)
+        raise r.fail("engine", key, f"= {value:g} kg: the counterweight cannot lift the beam: "
+                     f"its moment M L2 = {M * L2:g} kg m must exceed the beam's m_b L_CM = "
+                     f"{m_b * L_CM:g} kg m (M = {M:g} kg, m_b = {m_b:g} kg)")
     mount = r.choice("engine", "counterweight", eng, ("hinged", "fixed"))
 
     angles: dict[str, float] = {}
@@ -338,13 +352,17 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
         angles[name] = value
     theta, psi, phi = angles["theta"], angles["psi"], angles["phi"]
     if not -math.pi / 2 < theta < 0.0:
-        raise r.fail("start", "theta_deg", f"= {math.degrees(theta):g}°: the beam must start "
-                     "between -90° and 0° (spigot low, on the projectile's side)")
+        key = r.angle_key("theta", st)
+        hint = ""
+        if key == "theta" and -90.0 < theta < 0.0:
+            hint = f"; theta is in rad: for degrees write theta_deg = {theta:g}"
+        raise r.fail("start", key, f"{r.angle_text('theta', st, theta)}: the beam must start "
+                     f"between -90° and 0° (spigot low, on the projectile's side){hint}")
     H = r.positive("engine", "H", eng, "height in m") if "H" in eng else -L1 * math.sin(theta)
     offset = psi - theta if mount == "fixed" else None
     engine = Engine(L1=L1, L2=L2, L_CM=L_CM, L3=L3, L4=L4, m_b=m_b, M=M, m=m, I=I,
                     counterweight_offset=offset)
-    _check_start_pose(r, engine, theta, psi, phi, H, projectile)
+    _check_start_pose(r, engine, theta, psi, phi, H, projectile, st, "H" in eng)
     start = Start(theta=theta, psi=psi, phi=phi, H=H)
 
     if projectile == "none":
@@ -358,7 +376,8 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
         if (t_rel is None) == (angle_rel is None):
             raise r.fail("release", None, "give exactly one of time, velocity_angle_deg")
         if angle_rel is not None and not 0.0 < angle_rel < math.pi / 2:
-            raise r.fail("release", "velocity_angle_deg", f"= {math.degrees(angle_rel):g}°: "
+            raise r.fail("release", r.angle_key("velocity_angle", rel),
+                         f"{r.angle_text('velocity_angle', rel, angle_rel)}: "
                          "must lie strictly between 0° and 90°")
         release = Release(t_rel, angle_rel)
 
@@ -390,23 +409,43 @@ def _parse_flight(r: _Reader) -> Flight:
 
 
 def _check_start_pose(r: _Reader, e: Engine, theta: float, psi: float, phi: float, H: float,
-                      projectile: str) -> None:
+                      projectile: str, st: dict[str, Any] | None = None,
+                      H_given: bool = True) -> None:
     """Spigot and counterweight above ground; the projectile in the trough (y = 0) at the end of
-    the taut sling, or hanging above ground in the sling."""
+    the taut sling, or hanging above ground in the sling. Each refusal names the key that is
+    wrong, as the file wrote it (``theta_deg`` or ``theta``)."""
+    st = st or {}
+
+    def key(name: str) -> str:
+        return r.angle_key(name, st)
+
+    def text(name: str, value: float) -> str:
+        return r.angle_text(name, st, value)
+
     spigot_y = H + e.L1 * math.sin(theta)
     if spigot_y < -1e-9 * e.L1:
-        raise r.fail("start", "theta_deg", f"= {math.degrees(theta):g}° puts the spigot "
+        raise r.fail("start", key("theta"), f"{text('theta', theta)} puts the spigot "
                      f"{-spigot_y:.3g} m below ground (pivot height H = {H:g} m)")
     cw_y = H - e.L2 * math.sin(theta) + e.L3 * math.sin(psi)
     if cw_y < 0.0:
-        raise r.fail("start", "psi_deg", f"= {math.degrees(psi):g}° puts the counterweight "
-                     f"{-cw_y:.3g} m below ground (pivot height H = {H:g} m)")
+        # hanging straight down (ψ = −90°) is its lowest pose: below ground at some ψ means
+        # the pivot is too low for L3, whatever ψ; the key at fault sets the pivot's height
+        if H_given:
+            raise r.fail("engine", "H", f"= {H:g} m: the pivot is too low for the "
+                         f"counterweight (L3 = {e.L3:g} m) to hang above ground")
+        hint = ""
+        if key("theta") == "theta_deg" and -math.radians(90) < math.degrees(theta) < 0.0:
+            hint = (f"; theta_deg is in degrees (did you mean theta = {math.degrees(theta):g} "
+                    f"rad, i.e. theta_deg = {math.degrees(math.degrees(theta)):.4g}?)")
+        raise r.fail("start", key("theta"), f"{text('theta', theta)} puts the pivot only "
+                     f"{H:.3g} m above the trough (H = -L1 sin θ), too low for the "
+                     f"counterweight (L3 = {e.L3:g} m) to hang above ground{hint}")
     if projectile == "none":
         return
     y_m = spigot_y + e.L4 * math.sin(phi)
     if projectile == "sling":
         if y_m < 0.0:
-            raise r.fail("start", "phi_deg", f"= {math.degrees(phi):g}° puts the projectile "
+            raise r.fail("start", key("phi"), f"{text('phi', phi)} puts the projectile "
                          f"{-y_m:.3g} m below ground; raise the pivot with [engine] H")
         return
     if spigot_y > e.L4:
@@ -415,9 +454,9 @@ def _check_start_pose(r: _Reader, e: Engine, theta: float, psi: float, phi: floa
     if abs(y_m) > 1e-6 * e.L4:
         fit = -math.pi + math.asin(spigot_y / e.L4)
         where = "below ground" if y_m < 0 else "above the trough"
-        raise r.fail("start", "phi_deg", f"= {math.degrees(phi):g}° puts the projectile "
+        raise r.fail("start", key("phi"), f"{text('phi', phi)} puts the projectile "
                      f"{abs(y_m):.3g} m {where}; the sling lies in the trough at "
                      f"phi_deg = {math.degrees(fit):.6g}")
     if math.cos(phi) > 0.0:
-        raise r.fail("start", "phi_deg", f"= {math.degrees(phi):g}°: the sling must point away "
+        raise r.fail("start", key("phi"), f"{text('phi', phi)}: the sling must point away "
                      "from the throw (between -270° and -90°), under the beam")

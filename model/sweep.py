@@ -32,6 +32,7 @@ both included: ``30:60:7`` is 30, 35, ..., 60).
 
 from __future__ import annotations
 
+import argparse
 import itertools
 import math
 import os
@@ -48,11 +49,13 @@ from tqdm.auto import tqdm
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.dynamics import trough_sling_angle
 from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
-from trebuchet.model.simulate import resolve_rtol, simulate
+from trebuchet.model.simulate import ACCURACY, resolve_rtol, simulate
 
 __all__ = [
     "SUMMARY_COLUMNS",
     "SimulationOptions",
+    "output_step",
+    "accuracy_option",
     "parse_grid_values",
     "parse_grid_option",
     "check_grid",
@@ -70,6 +73,7 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "release_time": "s, release after the trigger",
     "release_speed": "m/s, projectile speed at release",
     "release_angle": "rad, projectile velocity above horizontal at release",
+    "release_angle_deg": "°, the same in degrees (as the scene file's _deg keys)",
     "release_height": "m, projectile height at release",
     "range": "m, range in vacuum from the pivot",
     "F_S_peak": "N, peak |F_S| (sling on projectile)",
@@ -106,6 +110,38 @@ class SimulationOptions:
         if self.after_release is not None and not self.after_release >= 0.0:
             raise TrebuchetInputError(f"after_release = {self.after_release:g} s: must not be "
                                       "negative")
+
+
+# --------------------------------------------------------------------------- command-line values
+# (shared by ``simulate`` and ``sweep``: one spelling, one check)
+
+MAX_DT = 0.1  # s: a coarser output step misses the shot's events and peaks
+
+
+def output_step(text: str) -> float:
+    """``--dt``: an output step in s, in (0, 0.1] (``simulate``, ``sweep``, ``report``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number of seconds") from None
+    if not 0.0 < value <= MAX_DT:
+        raise argparse.ArgumentTypeError(f"{text}: the output step must lie in (0, {MAX_DT:g}] "
+                                         "s (a shot lasts about a second)")
+    return value
+
+
+def accuracy_option(text: str) -> float | str:
+    """``--accuracy`` (also spelt ``--rtol``): a preset or a relative tolerance in (0, 1e-2)."""
+    if text in ACCURACY:
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give " + ", ".join(ACCURACY)
+                                         + " or a tolerance such as 1e-8") from None
+    if not 0.0 < value < 1e-2:
+        raise argparse.ArgumentTypeError(f"{text}: a tolerance must lie between 0 and 1e-2")
+    return value
 
 
 # --------------------------------------------------------------------------- grid
@@ -265,6 +301,7 @@ def summarize(run: pd.DataFrame, scene: Scene) -> dict[str, float]:
         "release_time": float(ev["release"]),
         "release_speed": float(fl["release_speed"]),
         "release_angle": float(fl["release_angle"]),
+        "release_angle_deg": math.degrees(float(fl["release_angle"])),
         "release_height": float(fl["release_height"]),
         "range": float(fl["range"]),
         "F_S_peak": peak("F_S_abs"),
@@ -325,9 +362,16 @@ def _chunks(items: Sequence[Any], size: int) -> list[Sequence[Any]]:
     return [items[i:i + size] for i in range(0, len(items), size)]
 
 
+#: Designs per chunk at most: a chunk takes well under a second, so that the progress bar
+#: moves from the first second on however large the grid (20,000 designs, 2 workers: 64 per
+#: chunk, not 2,500).
+MAX_CHUNK = 64
+
+
 def _chunk_size(n: int, workers: int) -> int:
-    """About four chunks per worker: few round trips, and a slow chunk does not stall the end."""
-    return max(1, math.ceil(n / (4 * workers)))
+    """About four chunks per worker (few round trips, and a slow chunk does not stall the end),
+    at most :data:`MAX_CHUNK` designs (the progress bar moves)."""
+    return max(1, min(MAX_CHUNK, math.ceil(n / (4 * workers))))
 
 
 def _is_dask_client(obj: Any) -> bool:

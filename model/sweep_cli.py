@@ -13,10 +13,17 @@ from __future__ import annotations
 import argparse
 import time
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import TrebuchetInputError, cli_command
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import ACCURACY
-from trebuchet.model.sweep import STATUS_OK, SimulationOptions, parse_grid_option, sweep
+from trebuchet.model.sweep import (
+    STATUS_OK,
+    SimulationOptions,
+    accuracy_option,
+    output_step,
+    parse_grid_option,
+    sweep,
+)
 from trebuchet.output import check_target, write_csv
 
 
@@ -36,24 +43,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="local processes (default: one per core; 1 runs in this process)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on a Dask cluster at ADDRESS (tcp://host:port; needs dask)")
-    p.add_argument("--dt", type=float, default=1e-3, help="output step in s (default 0.001)")
-    p.add_argument("--rtol", type=_tolerance, default="default",
-                   help="integrator tolerance: a number or " + ", ".join(ACCURACY)
-                        + f" (default: default = {ACCURACY['default']:g})")
+    p.add_argument("--dt", type=output_step, default=1e-3,
+                   help="output step in s, up to 0.1 (default 0.001)")
+    p.add_argument("--accuracy", "--rtol", dest="rtol", type=accuracy_option, default="default",
+                   help="fast, default, precise, or a relative tolerance such as 1e-8 "
+                        f"(default: default = {ACCURACY['default']:g}); as for simulate")
     p.add_argument("--after-release", type=float, default=None,
                    help="s of phase III to simulate (default: simulate's)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=_sweep)
 
 
-def _tolerance(text: str) -> float | str:
-    """``--rtol``: a preset name or a number."""
-    try:
-        return float(text)
-    except ValueError:
-        return text
-
-
+@cli_command
 def _sweep(args: argparse.Namespace) -> int:
     grid: dict[str, tuple[float, ...]] = {}
     for text in args.grid:

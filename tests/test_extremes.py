@@ -90,7 +90,10 @@ def test_near_vertical_beam_lifts_off_late_and_the_release_time_says_so():
 
 
 def test_start_that_buries_the_counterweight_is_refused():
-    with pytest.raises(TrebuchetInputError, match=r"\[start\] psi_deg.*below ground"):
+    # no psi could lift the counterweight off the ground: the beam's angle (which sets the
+    # pivot's height) is the key at fault, not psi (issue 17)
+    with pytest.raises(TrebuchetInputError, match=r"\[start\] theta_deg: = -10° puts the "
+                       r"pivot only 1.13 m above the trough.*counterweight.*above ground"):
         scene_with(start={"theta_deg": -10.0})
 
 

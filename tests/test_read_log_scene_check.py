@@ -108,10 +108,12 @@ def test_the_samples_swing_is_their_scenes_despite_noise_and_mislocated_points()
         assert 0.8 < found.time_s / found.time_sim_s < 1.25, name
 
 
+# on the command line the hints name options, not Python keywords (issue 17: errors.Option,
+# and the CLI's rewriting of messages not yet built with it)
 @pytest.mark.parametrize("name, args, words", [
-    ("kinovea_frames_origin.csv", [], ("kinovea_frames_origin.csv, column 'Time'", "fps=")),
+    ("kinovea_frames_origin.csv", [], ("kinovea_frames_origin.csv, column 'Time'", "--fps")),
     ("sleap_two_tracks.analysis.csv", ["--fps", "120"], ("track_0", "track_1")),
-    ("kinovea_hundredth_min.csv", ["--fps", "240"], ("column 'Time'", "time_unit=")),
+    ("kinovea_hundredth_min.csv", ["--fps", "240"], ("column 'Time'", "--time-unit")),
 ])
 def test_a_file_the_reader_refuses_is_one_line_and_status_2(exports, tmp_path, capsys, name,
                                                             args, words):

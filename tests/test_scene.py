@@ -142,3 +142,43 @@ def test_cli_paper_prints_the_table():
     res = _cli("paper")
     assert res.returncode == 0, res.stderr
     assert "θ̈ at 0+" in res.stdout and "lift-off" in res.stdout and "differs" in res.stdout
+
+
+# --- errors name the key the user wrote, and the one that is wrong (issue 17)
+
+def _scene_with(tmp_path, section: str, old: str, new: str):
+    text = HORSDAL.read_text(encoding="utf-8")
+    assert old in text
+    path = tmp_path / "s.toml"
+    path.write_text(text.replace(old, new, 1), encoding="utf-8")
+    return path
+
+
+def test_a_huge_beam_mass_blames_m_b_not_M(tmp_path):
+    path = _scene_with(tmp_path, "engine", "m_b = 622.0", "m_b = 1e308")
+    with pytest.raises(TrebuchetInputError, match=r"\[engine\] m_b: = 1e\+308 kg"):
+        Scene.from_toml(path)
+
+
+def test_radians_typed_under_theta_deg_blame_theta_and_say_so(tmp_path):
+    path = _scene_with(tmp_path, "start", "theta_deg = -50.0", "theta_deg = -0.87")
+    with pytest.raises(TrebuchetInputError, match=r"\[start\] theta_deg: = -0\.87°.*"
+                                                  r"did you mean theta = -0\.87 rad") as info:
+        Scene.from_toml(path)
+    assert "psi" not in str(info.value)
+
+
+def test_degrees_under_the_radian_key_report_that_key(tmp_path):
+    path = _scene_with(tmp_path, "start", "theta_deg = -50.0", "theta = -50")
+    with pytest.raises(TrebuchetInputError, match=r"\[start\] theta: = -50 rad .*write "
+                                                  r"theta_deg = -50") as info:
+        Scene.from_toml(path)
+    assert "theta_deg:" not in str(info.value) and "2864" not in str(info.value)
+
+
+def test_a_counterweight_below_ground_blames_what_sets_the_pivots_height(tmp_path):
+    path = _scene_with(tmp_path, "engine", "L1 = 6.48", "L1 = 6.48\nH = 1.0")
+    text = path.read_text(encoding="utf-8").replace("theta_deg = -50.0", "theta_deg = -5.0")
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(TrebuchetInputError, match=r"\[engine\] H: = 1 m: the pivot is too low"):
+        Scene.from_toml(path)

@@ -38,6 +38,11 @@ _LAZY = {
 }
 
 
+def __dir__() -> list[str]:
+    """Everything the package offers, the lazily loaded ingest functions included."""
+    return sorted(set(globals()) | set(_LAZY))
+
+
 def __getattr__(name: str) -> Any:
     """The ingest path loads on first use (filterpy takes about a second to import)."""
     if name in _LAZY:

@@ -9,13 +9,17 @@ row or key; no traceback, no partial output.
 from __future__ import annotations
 
 import argparse
+import ast
 import importlib
+import os
+import re
+import shlex
 import sys
 import warnings
 from collections.abc import Sequence
 from typing import NoReturn
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import Option, TrebuchetInputError, command_line
 
 ROOMS = (
     "trebuchet.model.cli",
@@ -54,8 +58,91 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_KEYWORD = re.compile(r"\b([a-z][a-z_]*)=(\{|'[^']*'|\"[^\"]*\"|[-+0-9.eE]+|[A-Za-z_]\w*"
+                      r"|(?=[\s),;]|$))")
+
+
+def _balanced(text: str, start: int) -> int:
+    """End (exclusive) of the ``{...}`` that opens at ``text[start]``, or -1."""
+    depth, quote = 0, ""
+    for i in range(start, len(text)):
+        c = text[i]
+        if quote:
+            quote = "" if c == quote else quote
+        elif c in "'\"":
+            quote = c
+        elif c == "{":
+            depth += 1
+        elif c == "}":
+            depth -= 1
+            if depth == 0:
+                return i + 1
+    return -1
+
+
+def cli_words(message: str, flags: set[str]) -> str:
+    """``message`` with the Python keywords it names as settings (``fps=240``,
+    ``columns={'beam': 'theta'}``) written as the command's options (``--fps 240``,
+    ``--column beam=theta``), for messages not yet built with :class:`Option`; a keyword is
+    rewritten only where the command has its option (``flags``: ``--fps``, ``--column``, ...)."""
+    plural = {"columns": "--column", "points": "--point"}
+    out, pos = [], 0
+    for match in _KEYWORD.finditer(message):
+        keyword, value = match.group(1), match.group(2)
+        flag = plural.get(keyword, "--" + keyword.replace("_", "-"))
+        if flag not in flags or match.start() < pos:
+            continue
+        end = match.end()
+        if value == "":  # "pass fps= to ...": the option alone
+            text = flag
+        elif value == "{":
+            end = _balanced(message, match.start(2))
+            if end < 0:
+                continue
+            try:
+                mapping = ast.literal_eval(message[match.start(2):end])
+            except (ValueError, SyntaxError):
+                continue
+            if not isinstance(mapping, dict):
+                continue
+            text = Option(keyword, mapping, flag=flag).cli()
+        else:
+            try:
+                literal = ast.literal_eval(value)
+            except (ValueError, SyntaxError):
+                literal = value
+            text = f"{flag} {shlex.quote(str(literal))}"
+        out.append(message[pos:match.start()])
+        out.append(text)
+        pos = end
+    out.append(message[pos:])
+    return "".join(out)
+
+
+def _flags(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> set[str]:
+    """The option strings of the sub-command that runs."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            args = list(sys.argv[1:] if argv is None else argv)
+            for word in args:
+                if word in action.choices:
+                    return {flag for a in action.choices[word]._actions
+                            for flag in a.option_strings}
+    return set()
+
+
 def _format_warning(message, category, filename, lineno, line=None) -> str:
     return f"trebuchet: warning: {message}\n"
+
+
+def _quiet_stdout() -> None:
+    """The reader of our output has gone (``trebuchet paper | head``): send what is left of
+    stdout nowhere, so that neither we nor the interpreter's final flush report it."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -63,9 +150,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     warnings.formatwarning = _format_warning
     try:
-        return int(args.run(args) or 0)
+        with command_line():  # hints name --options, not Python keywords (errors.Option)
+            status = int(args.run(args) or 0)
+        sys.stdout.flush()
+        return status
+    except BrokenPipeError:
+        _quiet_stdout()
+        return 141  # as a shell reports a command ended by SIGPIPE; no message
     except TrebuchetInputError as exc:
-        print(f"trebuchet: error: {exc}", file=sys.stderr)
+        print(f"trebuchet: error: {cli_words(str(exc), _flags(parser, argv))}",
+              file=sys.stderr)
         return 2
     except OSError as exc:  # a file the user named cannot be read or written
         where = f"{exc.filename}: " if exc.filename else ""

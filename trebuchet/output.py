@@ -57,6 +57,10 @@ def check_target(target: str | Path, folder: bool = False) -> Path:
         raise TrebuchetInputError(f"{target}: is a folder; give a file name to write")
     if folder and target.exists() and not target.is_dir():
         raise TrebuchetInputError(f"{target}: is a file; give a folder name for the report")
+    if folder and not target.is_dir() and target.suffix.lower() in (".html", ".htm"):
+        raise TrebuchetInputError(f"{target}: a report is a folder (index.html, the figures "
+                                  "and CSV files), not one page; give a folder name such as "
+                                  f"{target.with_suffix('')}")
     if folder and target.is_dir() and any(target.iterdir()) and not (
             (target / OUTPUT_MARKER).is_file() or (target / "index.html").is_file()):
         raise TrebuchetInputError(f"{target}: the folder holds other files and no earlier "

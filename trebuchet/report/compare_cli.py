@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
-from trebuchet.ingest.cli import add_log_arguments, log_options
+from trebuchet.errors import TrebuchetInputError, cli_command, warn_at_caller
+from trebuchet.ingest.cli import add_reconstruct_arguments, reconstruct_options
 from trebuchet.ingest.compare import (
     ALIGN_MODES,
     RELEASE_MODES,
@@ -28,6 +28,7 @@ from trebuchet.model.scene import Scene
 from trebuchet.output import check_target
 from trebuchet.report.page import write_report
 from trebuchet.report.report_cli import CAPTIONS
+from trebuchet.report.verdict import details_table, events_table, verdict_html
 
 __all__ = ["register", "compare_report", "ANGLE_MISFIT_ADVISORY"]
 
@@ -39,10 +40,10 @@ def _stderr(message: str) -> None:
 
 
 def _advisories(caught: list[warnings.WarningMessage], predicted: pd.DataFrame) -> list[str]:
-    """The warnings of reconstruct and simulate (passed on to the caller too), and whether
-    the model's angles fit the measured ones at all."""
+    """The warnings of reconstruct and simulate (passed on to the caller too, at the
+    caller's line), and whether the model's angles fit the measured ones at all."""
     for w in caught:
-        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        warn_at_caller(w.message, w.category)
     out = [str(w.message) for w in caught]
     chi2 = predicted.attrs.get("angle_chi2", math.nan)
     if chi2 > ANGLE_MISFIT_ADVISORY:
@@ -58,10 +59,11 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
                    progress: Callable[[str], None] | None = None,
                    **reconstruct_options) -> tuple[Path, pd.DataFrame]:
     """Compare a log with ``scene`` (:func:`~trebuchet.ingest.compare.compare`) and write
-    ``out_dir``: ``index.html``, ``metrics.csv`` (the contract's columns first),
-    ``events.csv`` and one PNG per figure of :data:`trebuchet.report.figures.FIGURES`.
-    Atomic: after an error there is no report (an older one at ``out_dir`` stays).
-    Returns the report's path and the metrics."""
+    ``out_dir``: ``index.html`` (the verdict and a short table first, then the figures, then
+    every metric and the events under "Details"), ``metrics.csv`` (the contract's columns
+    first, SI), ``events.csv`` and one PNG per figure of
+    :data:`trebuchet.report.figures.FIGURES`. Atomic: after an error there is no report (an
+    older one at ``out_dir`` stays). Returns the report's path and the metrics."""
     scene = scene if isinstance(scene, Scene) else Scene.from_toml(scene)
     options = options or CompareOptions()
     say = progress or (lambda message: None)
@@ -73,43 +75,58 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
     events = event_table(measured, predicted)
     notes = " ".join(str(n).rstrip(".") + "." for n in measured.attrs.get("notes", []))
     name = Path(str(measured.attrs.get("source", log))).name
-    intro = (f"Log {name} ({len(measured)} frames at {measured.attrs.get('fps', math.nan):.4g} "
-             f"fps, loads reconstructed in the {measured.attrs.get('form', '?')} form) against "
-             f"the model of {Path(scene.source).name}. Alignment: "
+    lag_ms = 1e3 * float(predicted.attrs.get("lag", 0.0))
+    intro = (f"How this was compared: log {name} ({len(measured)} frames at "
+             f"{measured.attrs.get('fps', math.nan):.4g} fps, loads reconstructed in the "
+             f"{measured.attrs.get('form', '?')} form) against the model of "
+             f"{Path(scene.source).name}. Every time on this page is in ms after the log's "
+             f"detected trigger; the model starts {lag_ms:+.1f} ms from it. Alignment: "
              f"{predicted.attrs['alignment']}. Release: {predicted.attrs['release_rule']}. "
-             f"Times are s after the log's detected trigger; metrics in SI units (N, N m, W, "
-             f"J, s); measured curves are ±{options.band_sd:g} sd bands, predicted curves "
-             "lines. Quantities held by the sling (F_S, P_m, E_m) are compared from trigger "
-             f"to release, the others as long as both frames go. {notes}").strip()
+             f"Measured curves are ±{options.band_sd:g} sd bands, predicted curves lines. "
+             "Quantities held by the sling (F_S, P_m, E_m) are compared from trigger to "
+             f"release, the others as long as both go on. {notes}").strip()
+    release = [m for e, m in zip(events["event"], events["measured"], strict=True)
+               if e == "release" and math.isfinite(m)]
+    lead = verdict_html(table, scene, release_ms=1e3 * release[0] if release else None,
+                        level=options.chance_level)
     from trebuchet.report.figures import FIGURES  # matplotlib loads only to draw
 
     figures = {key: (lambda make=make: make(predicted, measured, scene))
                for key, make in FIGURES.items()}
-    out = write_report(out_dir, figures, {"metrics": table, "events": events}, advisories,
-                       title=f"trebuchet compare: {name} against {Path(scene.source).name}",
-                       captions=CAPTIONS, intro=intro, csv_tables=["metrics", "events"],
-                       progress=say)
+    out = write_report(out_dir, figures, {}, advisories,
+                       title=f"Measured against predicted: {name}, {Path(scene.source).name}",
+                       captions=CAPTIONS, intro=intro, progress=say, lead_html=lead,
+                       details={"All metrics (units of the figures; SI in metrics.csv)":
+                                details_table(table, scene),
+                                "Events (ms after the log's trigger)": events_table(events)},
+                       files={"metrics.csv": table, "events.csv": events})
     return out, table
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add ``compare LOG --scene SCENE -o DIR [--fps N] [--column NAME=theta ...]
-    [--point pivot=NAME ...] [--release auto|log|scene] [--align fit|trigger] [--quiet]``."""
+    """Add ``compare LOG --scene SCENE -o DIR`` with every option of ``forces`` (the same
+    names and meanings: ``--fps``, ``--column``, ``--point``, ``--form``, ``--trough``,
+    ``--trigger``, ``--lift-off``, ``--release``) and its own ``--release-rule``,
+    ``--align``, ``--quiet``."""
     p = sub.add_parser(
-        "compare", help="a filmed shot against the model: metrics, figures, HTML report",
-        description="Reconstruct the loads of LOG, simulate SCENE aligned to the log and "
-                    "write DIR/index.html with the figures, DIR/metrics.csv (peaks, RMS "
-                    "differences, peak timing, fraction outside the measured ±2 sd band) "
-                    "and DIR/events.csv. The directory is written whole or not at all.")
-    add_log_arguments(p)
+        "compare", help="a filmed shot against the model: verdict, metrics, figures, HTML",
+        description="Reconstruct the loads of LOG (as forces does, with the same options), "
+                    "simulate SCENE aligned to the log and write DIR/index.html: a verdict "
+                    "per quantity (does the prediction stay within the measured ±2 sd band "
+                    "as often as chance allows?), the figures, DIR/metrics.csv and "
+                    "DIR/events.csv. The directory is written whole or not at all.")
+    add_reconstruct_arguments(p)
     p.add_argument("-o", "--output", required=True, help="report directory to write")
-    p.add_argument("--release", choices=RELEASE_MODES, default="auto",
-                   help="auto (default): a scene's release time is replaced by the log's "
-                        "release, a velocity-angle rule is kept; log: always the log's; "
-                        "scene: always the scene's rule")
+    p.add_argument("--release-rule", choices=RELEASE_MODES, default=None,
+                   help="the model's release: auto (default): a scene's release time is "
+                        "replaced by the log's release, a velocity-angle rule is kept; log: "
+                        "always the log's; scene: always the scene's rule")
     p.add_argument("--align", choices=ALIGN_MODES, default="fit",
                    help="fit (default): the model's start fitted to the measured angles; "
                         "trigger: the model starts at the log's detected trigger")
+    p.add_argument("--chance-runs", type=int, default=CompareOptions.chance_runs,
+                   metavar="N", help="simulated logs that estimate what chance allows "
+                   f"(default {CompareOptions.chance_runs}; 0: no verdict)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(run=_compare)
 
@@ -119,22 +136,56 @@ def _summary(table: pd.DataFrame) -> Mapping[str, float]:
             "worst_outside": float(table["outside_band_fraction"].max())}
 
 
+def _release_rule(args: argparse.Namespace) -> str:
+    """``--release-rule``; the words auto, log and scene given to ``--release`` (its meaning
+    before ``compare`` took the options of ``forces``) still choose the rule, with a note."""
+    if args.release is not None and args.release.strip().lower() in RELEASE_MODES:
+        word = args.release.strip().lower()
+        if args.release_rule is not None and args.release_rule != word:
+            raise TrebuchetInputError(f"--release {word} and --release-rule "
+                                      f"{args.release_rule}: give the rule once, as "
+                                      "--release-rule")
+        print(f"trebuchet compare: note: --release {word} is now written --release-rule "
+              f"{word}; --release takes the release time (s), as for forces",
+              file=sys.stderr)
+        args.release = None
+        return word
+    return args.release_rule or "auto"
+
+
+@cli_command
 def _compare(args: argparse.Namespace) -> int:
     start = time.monotonic()
     # what can be checked before the progress lines start: the report folder, the log, the scene
+    rule = _release_rule(args)
     check_target(args.output, folder=True)
     if not Path(args.log).is_file():
         raise TrebuchetInputError(f"{args.log}: no such file")
-    reconstruct_options = log_options(args)
+    if not 0 <= args.chance_runs <= 1000:
+        raise TrebuchetInputError(f"--chance-runs {args.chance_runs}: give 0 to 1000")
+    options = reconstruct_options(args)
     scene = Scene.from_toml(args.scene)
-    options = CompareOptions(release=args.release, align=args.align)
-    out, table = compare_report(args.log, scene, args.output, options=options,
-                                progress=None if args.quiet else _stderr,
-                                **reconstruct_options)
-    s = _summary(table)
-    print(f"compare {args.log} against {args.scene} -> {out / 'index.html'} "
-          f"(RMS differences up to {100 * s['worst_rms_rel']:.3g} % of the measured peaks, "
-          f"up to {100 * s['worst_outside']:.3g} % of the shot outside "
-          f"±{options.band_sd:g} sd; "
-          f"{time.monotonic() - start:.1f} s)")
+    compare_options = CompareOptions(release=rule, align=args.align,
+                                     chance_runs=args.chance_runs)
+    out, table = compare_report(args.log, scene, args.output, options=compare_options,
+                                progress=None if args.quiet else _stderr, **options)
+    print(f"compare {args.log} against {args.scene} -> {out / 'index.html'}: "
+          f"{_verdict_line(table)} ({time.monotonic() - start:.1f} s)")
     return 0
+
+
+def _verdict_line(table: pd.DataFrame) -> str:
+    """The verdict in one line, for the terminal."""
+    s = _summary(table)
+    worst = (f"RMS differences up to {100 * s['worst_rms_rel']:.3g} % of the measured peaks, "
+             f"up to {100 * s['worst_outside']:.3g} % of the shot outside ±2 sd")
+    if "within_chance" not in table or table["chance_limit"].isna().all():
+        return worst
+    differ = table.loc[table["verdict"] == "differs", "quantity"].tolist()
+    border = table.loc[table["verdict"] == "borderline", "quantity"].tolist()
+    also = f"; borderline: {', '.join(border)}" if border else ""
+    if not differ:
+        return (f"model and measurement agree within chance on all {len(table)} quantities"
+                f"{' (' + also[2:] + ')' if also else ''}; " + worst)
+    return (f"model and measurement differ beyond chance in {len(differ)} of {len(table)} "
+            f"quantities ({', '.join(differ)}{also}); " + worst)

@@ -25,7 +25,13 @@ from matplotlib.figure import Figure
 from trebuchet.ingest.uncertainty import BAND_SD
 from trebuchet.model.scene import Scene
 from trebuchet.model.timeline import shot_events, shot_time, shot_window
-from trebuchet.report.figures_draw import draw_curve, event_values, label_time_axis, mark_events
+from trebuchet.report.figures_draw import (
+    draw_curve,
+    event_values,
+    label_time_axis,
+    legend,
+    mark_events,
+)
 from trebuchet.report.figures_engine import draw_engine, greatest_bending_time
 
 __all__ = [
@@ -68,7 +74,7 @@ def _weights(scene: Scene) -> tuple[float, float]:
 
 def _time_panel(ax: Axes, frames: list[tuple[pd.DataFrame, bool]],
                 series: list[tuple[str, str, str]], *, scale: float, ylabel: str,
-                absolute: bool = False) -> None:
+                absolute: bool = False, legend_at: str = "best") -> None:
     """Curves ``(column, label, colour)`` of every frame against time, with event points."""
     for frame, measured in frames:
         for column, label, colour in series:
@@ -81,7 +87,7 @@ def _time_panel(ax: Axes, frames: list[tuple[pd.DataFrame, bool]],
     ax.set_ylabel(ylabel)
     label_time_axis(ax)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize="small", loc="best")
+    legend(ax, loc=legend_at)
 
 
 def _annotate(ax: Axes, frames: list[tuple[pd.DataFrame, bool]], column: str, scale: float,
@@ -151,8 +157,8 @@ def fig_reactions(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     _annotate(axes[1], frames, "F_R_abs", Mg, "M g", offset=(-130, -4))
     _panel_title(axes[1], "b", "at the pivot, on the beam")
     _time_panel(axes[2], frames, [("F_R_x", "F_R,x", COLOURS["R_x"])], scale=Mg,
-                ylabel="F_R,x / (M g)  (> 0: away from the target)")
-    _annotate(axes[2], frames, "F_R_x", Mg, "M g", at="trough", offset=(-140, -4))
+                ylabel="F_R,x / (M g)  (> 0: away from the target)", legend_at="lower left")
+    _annotate(axes[2], frames, "F_R_x", Mg, "M g", at="trough", offset=(-60, 14))
     _annotate(axes[2], frames, "F_R_x", Mg, "M g", offset=(-130, -4))
     _panel_title(axes[2], "c", "horizontal component at the pivot")
     return fig
@@ -199,7 +205,7 @@ def fig_bending(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     ax.set_ylabel("share of F_R⊥ (%)")
     label_time_axis(ax)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize="small")
+    legend(ax)
     _panel_title(ax, "c", f"shares where |F_R⊥| > {SHARE_MIN_FRACTION:.0%} of peak")
     return fig
 
@@ -223,7 +229,7 @@ def _locus(ax: Axes, frames: list[tuple[pd.DataFrame, bool]], x: str, y: str, sc
                         xerr=BAND_SD * frame[f"{x}_sd"].to_numpy(dtype=float)[idx] / scale,
                         yerr=BAND_SD * frame[f"{y}_sd"].to_numpy(dtype=float)[idx] / scale,
                         fmt="none", ecolor=colour, alpha=0.5, lw=0.8,
-                        label=f"±{BAND_SD:g} sd")
+                        label=f"{label} measured ±{BAND_SD:g} sd")
         if from_trigger:
             ax.plot(xs[0], ys[0], "o", ms=7, mfc="white", mec=colour, mew=1.2, zorder=5)
         ex = event_values(frame, x)
@@ -236,7 +242,7 @@ def _locus(ax: Axes, frames: list[tuple[pd.DataFrame, bool]], x: str, y: str, sc
     ax.axvline(0.0, color="0.8", lw=0.6, zorder=0)
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize="small")
+    legend(ax)
 
 
 def _between(frame: pd.DataFrame, start: str | None, end: str) -> pd.DataFrame:
@@ -329,7 +335,7 @@ def fig_configurations(predicted: Frame, measured: Frame, scene: Scene) -> Figur
         ax.set_xlabel("x (m)  (target toward −x)")
         ax.set_ylabel("height y (m)")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize="small", loc="lower right")
+        legend(ax, loc="lower right")
     return fig
 
 
@@ -365,22 +371,23 @@ def fig_energy(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
                     ylabel="rate of work (kW)")
         _panel_title(axes[j], "ace"[j], f"on the {name}")
         _time_panel(axes[3 + j], frames, [(f"E_{key}", f"E_{key}", c)], scale=1e3,
-                    ylabel="energy gained (kJ)")
+                    ylabel="energy gained (kJ)",
+                    legend_at={"M": "lower left", "beam": "lower right"}.get(key, "upper left"))
         _panel_title(axes[3 + j], "bdf"[j], f"of the {name}")
-    for frame, _ in frames:
+    for k, (frame, _) in enumerate(frames):
         for tc in _crossing_times(frame, "E_m", (0.1, 0.5, 0.9)):
             p = np.interp(tc, shot_time(frame), frame["P_m"].to_numpy(dtype=float))
             axes[2].plot(tc * 1e3, p / 1e3, "x", ms=8, mew=1.5, color="black")
         delta_u = scene.delta_U
         e_beam = frame["E_beam"].to_numpy(dtype=float)
-        if delta_u and np.isfinite(e_beam).any():
+        if k == 0 and delta_u and np.isfinite(e_beam).any():  # one note: the first frame's
             i = int(np.nanargmax(e_beam))
             t_i = shot_time(frame)[i]
             axes[4].annotate(f"peak {e_beam[i] / 1e3:.1f} kJ = {e_beam[i] / delta_u:.0%} of "
                              f"ΔU ({delta_u / 1e3:.0f} kJ)", (t_i * 1e3, e_beam[i] / 1e3),
                              textcoords="offset points", xytext=(-150, -16), fontsize="small")
     axes[2].plot([], [], "x", color="black", label="10, 50, 90 % of E_m at release")
-    axes[2].legend(fontsize="small")
+    legend(axes[2])
     return fig
 
 

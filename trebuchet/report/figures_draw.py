@@ -27,6 +27,7 @@ __all__ = [
     "draw_curve",
     "mark_events",
     "label_time_axis",
+    "legend",
 ]
 
 def event_values(frame: pd.DataFrame, column: str | Callable[[pd.DataFrame], np.ndarray]
@@ -75,9 +76,11 @@ def draw_curve(ax: Axes, frame: pd.DataFrame, column: str, *, scale: float, colo
     sd_col = f"{column}_sd"
     if sd_col in frame.columns:
         sd = frame[sd_col].to_numpy(dtype=float) / scale
+        band_label = f"{label} measured ±{BAND_SD:g} sd"
         ax.fill_between(t_ms, y - BAND_SD * sd, y + BAND_SD * sd, color=color, alpha=0.25,
-                        lw=0, label=f"{label} measured ±{BAND_SD:g} sd")
-        ax.plot(t_ms, y, color=color, lw=0.8, ls="--")
+                        lw=0, label=band_label)
+        # the dashed mean joins the band's legend entry (legend())
+        ax.plot(t_ms, y, color=color, lw=0.8, ls="--", gid=band_label)
     else:
         ax.plot(t_ms, y, color=color, lw=1.0, ls="--", label=f"{label} measured (no sd)")
 
@@ -92,6 +95,21 @@ def mark_events(ax: Axes, frame: pd.DataFrame, column: str, *, scale: float, col
     for te, value in event_values(frame, fn).values():
         ax.plot(te * 1e3, value / scale, "o", ms=5, mfc=color, mec="black", mew=0.6,
                 zorder=5)
+
+
+def legend(ax: Axes, **kwargs) -> None:
+    """The axes' legend, a measured band's entry drawn with its dashed mean line on it (the
+    line carries the band's label as its ``gid``), each label once."""
+    from matplotlib.legend_handler import HandlerTuple
+
+    handles, labels = ax.get_legend_handles_labels()
+    lines = {line.get_gid(): line for line in ax.get_lines() if line.get_gid()}
+    seen: dict[str, object] = {}
+    for handle, label in zip(handles, labels, strict=True):
+        if label not in seen:
+            seen[label] = (handle, lines[label]) if label in lines else handle
+    ax.legend(list(seen.values()), list(seen), handler_map={tuple: HandlerTuple(ndivide=1)},
+              fontsize="small", **kwargs)
 
 
 def label_time_axis(ax: Axes) -> None:

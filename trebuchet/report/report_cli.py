@@ -10,7 +10,7 @@ import warnings
 from collections.abc import Callable
 from pathlib import Path
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import Option, TrebuchetInputError, cli_command, warn_at_caller
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
 from trebuchet.output import check_target
@@ -47,14 +47,15 @@ def report_scene(scene: Scene, out_dir: str | Path, *, dt: float = 1e-3,
     Warnings of the model (slack sling, ...) are shown in the report as advisories and
     passed on."""
     if not 0.0 < dt <= 0.1:
-        raise TrebuchetInputError(f"--dt {dt:g}: the output step must lie in (0, 0.1] s")
+        raise TrebuchetInputError(f"{Option('dt', dt)}: the output step must lie in "
+                                  "(0, 0.1] s")
     say = progress or (lambda message: None)
     say(f"simulating {scene.source}")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         run = simulate(scene, dt=dt)
     for w in caught:
-        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        warn_at_caller(w.message, w.category)
     advisories = [str(w.message) for w in caught]
     if "sling_tension" in run.columns and (run.loc[run["phase"] == 2, "sling_tension"] < 0).any():
         advisories.append("the sling tension goes negative in the sling phase: a real sling "
@@ -89,6 +90,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=_report)
 
 
+@cli_command
 def _report(args: argparse.Namespace) -> int:
     start = time.monotonic()
     check_target(args.output, folder=True)
