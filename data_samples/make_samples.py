@@ -562,8 +562,8 @@ def readme_text(samples: list[Sample]) -> str:
         "y up; pivot (0, H), spigot = pivot + L1 e_θ, hinge = pivot − L2 e_θ, counterweight = "
         "hinge + L3 e_ψ, projectile = spigot + L4 e_φ.",
         "",
-        "`horsdal_large.toml` is the paper's engine (Table 1); `video_tilted_dlc.csv`, tracked "
-        "from rendered video, is the sample of `make demo`.",
+        "`horsdal_large.toml` is the paper's engine (Table 1); `horsdal_240fps.csv` is the "
+        "sample of `make demo`.",
         "",
         "| file | what it holds |",
         "|---|---|",
