@@ -451,7 +451,8 @@ def deeplabcut_sample(index: int) -> Sample:
         f"{TRIGGER * fps:g}, t = {TRIGGER:g} s). Seed `[{SEED}, {index}]`. Read: "
         f"`read_log(path, fps={fps:g}, points={DLC_POINTS!r}, min_likelihood=0.9)` (the "
         f"mislocated positions have likelihood up to 0.85: stricter than the default 0.6, "
-        f"DeepLabCut's own `pcutoff`, which keeps those above 0.6)."
+        f"DeepLabCut's own `pcutoff`; at 0.6 those above it are found instead by the engine's "
+        f"geometry and left out, with a note)."
     )
     return Sample(name, text, readme)
 

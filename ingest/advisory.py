@@ -80,7 +80,8 @@ def _required_scale(by_order: np.ndarray, rest: np.ndarray, limit: float) -> flo
 def resolution_advisories(t: np.ndarray, moving: np.ndarray, values: dict[str, np.ndarray],
                           sd: dict[str, np.ndarray], by_order: dict[str, np.ndarray],
                           event_var: dict[str, np.ndarray], fps: float, noise_deg: float,
-                          fraction: float = 0.1) -> list[Advisory]:
+                          fraction: float = 0.1, lines: np.ndarray | None = None
+                          ) -> list[Advisory]:
     """Advisories for the loads of :data:`ADVISED` present in ``values``.
 
     ``t`` (n,) log time (s); ``moving`` (n,) rows of the shot (after the trigger);
@@ -106,7 +107,7 @@ def resolution_advisories(t: np.ndarray, moving: np.ndarray, values: dict[str, n
         rest = np.clip(s[bad] ** 2 - lin.sum(axis=0) - ev[bad], 0.0, None)
         only_events = bool(np.all(np.sqrt(np.clip(s[bad] ** 2 - ev[bad], 0, None)) <= limit))
         scale = None if only_events else _required_scale(lin, rest, limit)
-        where = row_ranges(bad, t)
+        where = row_ranges(bad, t, lines=lines)
         head = (f"{label}: sd up to {s[w]:.3g} (at t = {t[w]:.4g} s) exceeds "
                 f"{fraction:.0%} of its peak {peak:.3g} on {bad.size} rows, {where}")
         if only_events:

@@ -360,8 +360,12 @@ def sling_track_end(log: pd.DataFrame, min_frames: int = 3) -> tuple[float, floa
 def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                         events: Mapping[str, float | None] | None = None,
                         options: ReconstructOptions | None = None,
-                        release_sd: float | None = None) -> pd.DataFrame:
+                        release_sd: float | None = None,
+                        lines: np.ndarray | None = None) -> pd.DataFrame:
     """Every load and its sd from the output of :func:`~trebuchet.ingest.smoothing.smooth.smooth`.
+
+    ``lines``: the file's line number of each row (``read_log``'s ``ReadLog.lines``); the
+    advisories and validity findings then name rows by them, as the reader's notes do.
 
     ``events``: given event times (s, log time; None = no such event) overriding those in
     ``est.attrs["events"]`` and the lift-off detection; ``release_sd`` (s): sd of the
@@ -434,11 +438,11 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         t, moving, {c: prop.value[:, j] for c, j in col.items()},
         {c: sd[:, j] for c, j in col.items()}, {c: prop.by_order[:, :, j] for c, j in col.items()},
         {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
-        options.resolution_fraction)
+        options.resolution_fraction, lines=lines)
     validity = geometry_findings(t, phase, result["theta"].to_numpy(), result["psi"].to_numpy(),
                                  result["phi"].to_numpy(), scene,
                                  tension=result["sling_tension"].to_numpy(),
-                                 tension_sd=result["sling_tension_sd"].to_numpy())
+                                 tension_sd=result["sling_tension_sd"].to_numpy(), lines=lines)
     result.attrs.update({
         "events": {"trigger": trigger, "lift_off": lift, "release": release},
         "event_sd": event_sd,
@@ -766,7 +770,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     if calibrated is not None:
         est = widened_by_calibration(est, calibrated.common_sd)
         est.attrs["notes"] = [*est.attrs.get("notes", []), *calibrated.notes]
-    result = loads_from_smoothed(est, scene, events=given, options=options,
+    info = read_log_info(log)
+    lines = info.lines if info is not None and info.lines is not None \
+        and len(info.lines) == len(est) else None
+    result = loads_from_smoothed(est, scene, events=given, options=options, lines=lines,
                                  release_sd=release_sd)
     for key in ("source", "format", "repairs", "columns"):
         if key in log.attrs:

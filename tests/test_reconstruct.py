@@ -263,6 +263,23 @@ def test_psi_beyond_its_range_names_the_rows(horsdal):
     assert "rows 8" in text or "rows 7" in text
 
 
+def test_rows_of_a_log_file_are_named_by_the_files_line_numbers(horsdal, tmp_path):
+    """The findings name the same numbers as the reader's notes: the file's lines (here the
+    header is line 1 and 40 rows were dropped before the bad ones, so they differ)."""
+    from trebuchet.ingest.logs.read_log import write_log
+
+    log, truth = simulated_log(horsdal, 120, 0.2, seed=6)
+    bad = log.copy()
+    rows = np.arange(80, 95)
+    bad.loc[rows, "psi"] = bad.loc[rows, "theta"] + np.radians(20.0)  # arm through the beam
+    bad.loc[np.arange(10, 50), ["theta", "psi", "phi"]] = np.nan  # dropped by read_log
+    path = write_log(bad, tmp_path / "shot.csv")
+    with pytest.warns(ModelValidityWarning, match="through the beam") as rec:
+        reconstruct(path, horsdal, events=truth.attrs["events"])
+    text = " ".join(str(w.message) for w in rec if "through the beam" in str(w.message))
+    assert "lines 8" in text and "of the file" in text  # data row 80 is line 82 of the file
+
+
 def test_a_clean_log_raises_no_validity_warning(horsdal):
     log, truth = simulated_log(horsdal, 240, 0.1, seed=8)
     with warnings.catch_warnings(record=True) as rec:

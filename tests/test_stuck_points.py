@@ -63,3 +63,36 @@ def test_read_log_names_a_stuck_counterweight_and_leaves_it_out(tmp_path):
     assert len(notes) == 1 and "counterweight ('weight')" in notes[0]
     assert np.isnan(log["psi"].to_numpy()[moving[2:-2]]).all()
     assert np.isfinite(log["theta"].to_numpy()[moving]).all()
+
+
+def test_a_clean_track_has_no_position_off_the_engine(shot):
+    """Including the stone in flight after the release (its tie to the spigot lets go)."""
+    from trebuchet.ingest.geometry.stuck_points import off_engine
+
+    assert off_engine(_positions(shot)) == []
+
+
+@pytest.mark.parametrize("role", ["counterweight", "hinge", "spigot", "projectile"])
+def test_a_few_wrong_matches_are_blamed_on_their_point(shot, role):
+    """A template that matched something 0.6 m off for 3 frames, along the tie that shows it
+    (a distance tie sees a jump along it, the beam's line one across it): only that point
+    is blamed."""
+    from trebuchet.ingest.geometry.stuck_points import off_engine
+
+    pos = _positions(shot)
+    frames = np.flatnonzero(shot.t > 0.5)[:3]
+    anchor = {"counterweight": "hinge", "hinge": "pivot", "spigot": "pivot",
+              "projectile": "spigot"}[role]
+    x, y = (v.copy() for v in pos[role])
+    ax, ay = pos[anchor]
+    u = np.column_stack([x - ax, y - ay])[frames]
+    u /= np.hypot(u[:, 0], u[:, 1])[:, None]
+    if role == "hinge":  # across the beam
+        u = np.column_stack([-u[:, 1], u[:, 0]])
+    x[frames] += 0.6 * u[:, 0]
+    y[frames] += 0.6 * u[:, 1]
+    pos[role] = (x, y)
+    found = off_engine(pos)
+    assert {o.point for o in found} == {role}
+    hit = set().union(*(range(o.first, o.last + 1) for o in found))
+    assert set(frames.tolist()) <= hit and len(hit) <= len(frames) + 2

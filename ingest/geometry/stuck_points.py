@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StuckRun", "stuck_runs", "tracking_noise", "WINDOW", "STILL_SHARE"]
+__all__ = ["StuckRun", "stuck_runs", "OffEngine", "off_engine", "tracking_noise", "WINDOW",
+           "STILL_SHARE"]
 
 #: Frames in the sliding window (a stuck run shorter than this is not found).
 WINDOW = 10
@@ -171,3 +172,79 @@ def stuck_runs(positions: dict[str, tuple[np.ndarray, np.ndarray]],
                                   float(np.nanmax(spreads[first:last + 1])),
                                   float(np.nanmax(moves[first:last + 1]))))
     return found
+
+
+#: A tie further than this many robust sd (and :data:`OFF_SHARE` of its size) from its
+#: median marks a position off the engine...
+OFF_SD = 6.0
+OFF_SHARE = 0.03
+#: ...for the projectile only in runs of at most this many frames (a longer departure is
+#: the stone in flight, cut by :mod:`.sling_circle`); the beam's and the arm's ties hold
+#: in every phase.
+OFF_RUN = 5
+
+
+@dataclass(frozen=True)
+class OffEngine:
+    """Frames ``first``..``last`` where ``point`` lies off the engine: its tie to
+    ``partner`` leaves its median by ``largest`` (the file's unit), ``sd`` robust sd of it."""
+
+    point: str
+    partner: str
+    first: int
+    last: int
+    largest: float
+    sd: float
+
+
+def _robust_sd(d: np.ndarray) -> float:
+    ok = d[np.isfinite(d)]
+    return float(1.4826 * np.median(np.abs(ok - np.median(ok)))) if ok.size else float("nan")
+
+
+def off_engine(positions: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[OffEngine]:
+    """Runs of frames where one tracked point lies off the engine's geometry (a template
+    matched on an occluder or another marker), each blamed on the
+    point whose own ties break: the spigot if its distance from the pivot (L1) breaks, the
+    hinge if only the beam bends, the counterweight if only L3 stretches, the projectile if
+    only L4 does (a spike, not the stone's flight). ``positions`` as for :func:`stuck_runs`."""
+    if "pivot" not in positions or "spigot" not in positions:
+        return []
+    xy = {r: np.column_stack(p).astype(float) for r, p in positions.items()}
+    n = xy["pivot"].shape[0]
+    ties: dict[str, tuple[np.ndarray, float]] = {}
+    arm = xy["spigot"] - xy["pivot"]
+    ties["spigot"] = (np.hypot(arm[:, 0], arm[:, 1]), 0.0)
+    if "hinge" in xy:
+        ties["hinge"] = _tie(xy, "hinge", "spigot")
+    if "counterweight" in xy and "hinge" in xy:
+        ties["counterweight"] = _tie(xy, "counterweight", "hinge")
+    if "projectile" in xy:
+        ties["projectile"] = _tie(xy, "projectile", "spigot")
+    partners = {"spigot": "pivot", "hinge": "spigot", "counterweight": "hinge",
+                "projectile": "spigot"}
+    bad: dict[str, np.ndarray] = {}
+    size = {}
+    for point, (d, s) in ties.items():
+        s = s if s > 0 else float(np.nanmedian(d))
+        size[point] = s
+        dev = np.abs(d - np.nanmedian(d))
+        sd = _robust_sd(np.where(dev < 0.1 * s, d, np.nan))  # the stone's flight left out
+        bad[point] = np.nan_to_num(dev > max(OFF_SD * sd, OFF_SHARE * s), nan=False)
+    # blame the point whose own tie breaks, not the partner it drags along
+    if "hinge" in bad:
+        bad["hinge"] &= ~bad["spigot"]
+    if "counterweight" in bad and "hinge" in bad:
+        bad["counterweight"] &= ~bad["hinge"]
+    if "projectile" in bad:
+        bad["projectile"] &= ~bad["spigot"]
+    found = []
+    for point, mask in bad.items():
+        d = ties[point][0]
+        for first, last in _runs(mask):
+            if point == "projectile" and last - first + 1 > OFF_RUN:
+                continue  # the stone in flight leaves its sling's circle for good
+            dev = np.abs(d[first:last + 1] - np.nanmedian(d))
+            found.append(OffEngine(point, partners[point], first, last, float(np.nanmax(dev)),
+                                   _robust_sd(d)))
+    return sorted(found, key=lambda o: (o.first, o.point)) if n else []

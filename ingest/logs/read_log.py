@@ -37,7 +37,7 @@ import pandas as pd
 from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
 from trebuchet.ingest.geometry.points import NEEDS, point_angles, resolve_points
 from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
-from trebuchet.ingest.geometry.stuck_points import stuck_runs
+from trebuchet.ingest.geometry.stuck_points import off_engine, stuck_runs
 from trebuchet.ingest.logs.repairs import (
     drop_repeated_frames,
     drop_rows_without_angles,
@@ -64,7 +64,7 @@ from trebuchet.ingest.readers.sleap import (
     read_sleap_h5,
 )
 from trebuchet.ingest.readers.source import LogSource, ParsedLog
-from trebuchet.ingest.readers.table import read_text, split_lines
+from trebuchet.ingest.readers.table import format_rows, read_text, split_lines
 from trebuchet.ingest.readers.time_units import check_time_unit
 from trebuchet.ingest.readers.timebase import (
     check_fps,
@@ -354,6 +354,10 @@ def _has_default_angles(source: LogSource) -> bool:
     return any(c.default in ANGLES for c in source.angle_columns)
 
 
+#: The point each point's tie runs to (for the note on positions off the engine).
+TIED = {"spigot": "pivot", "hinge": "beam", "counterweight": "hinge", "projectile": "spigot"}
+
+
 def _from_points(
     source: LogSource, points: Mapping[str, str] | None
 ) -> ParsedLog:
@@ -387,6 +391,18 @@ def _from_points(
             f"in rows {source.rows[run.first]}-{source.rows[run.last]} (t = {t0:.6g}-{t1:.6g} "
             f"s) while the {run.reference} moves {run.moved:.3g}: the tracker is stuck "
             "(on an occluder?); those positions are left out as gaps")
+    jumps: dict[str, list[int]] = {}
+    for off in off_engine(positions):  # a few frames off the engine's geometry: gaps, named
+        x, y = (v.copy() for v in positions[off.point])
+        x[off.first:off.last + 1] = np.nan
+        y[off.first:off.last + 1] = np.nan
+        positions[off.point] = (x, y)
+        jumps.setdefault(off.point, []).extend(range(off.first, off.last + 1))
+    for role, frames in jumps.items():
+        repairs.append(
+            f"{role} ('{chosen[role].label}') lies off the engine's geometry (its distance or "
+            f"line to the {TIED[role]} breaks) in {format_rows(source.rows[frames])}: a "
+            "tracker's wrong match; those positions are left out as gaps")
     angles = point_angles(positions)
     leaves, note = _cut_flight_from_sling(source, positions, angles)
     if note:
@@ -458,6 +474,7 @@ def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame
         points=None if log.points is None else {"t": df["t"].to_numpy()} | log.points,
         point_names=None if log.points is None else dict(log.point_names or {}),
         leaves_sling=log.leaves_sling,
+        lines=log.rows,
     )
     df.attrs.update(info.legacy_attrs())
     df.attrs["log"] = info

@@ -54,6 +54,9 @@ class ReadLog:
         For point files: the file's point that gave each role.
     leaves_sling:
         ``(t, sd)`` in s when a tracked projectile leaves its sling's circle, else None.
+    lines:
+        The file's line number (1-based) of each row (int64, read-only): messages about
+        rows name these, the numbers a user sees in an editor.
     """
 
     source: str
@@ -66,6 +69,7 @@ class ReadLog:
     points: Any = field(default=None, repr=False)
     point_names: Any = None
     leaves_sling: tuple[float, float] | None = None
+    lines: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -74,6 +78,8 @@ class ReadLog:
         set_(self, "columns", MappingProxyType(dict(self.columns)))
         if self.frame is not None:
             set_(self, "frame", _frozen(np.asarray(self.frame, dtype=np.int64)))
+        if self.lines is not None:
+            set_(self, "lines", _frozen(np.asarray(self.lines, dtype=np.int64)))
         if self.points is not None:
             set_(self, "points", MappingProxyType(
                 {k: _frozen(np.asarray(v, dtype=float)) for k, v in self.points.items()}))
@@ -92,7 +98,7 @@ class ReadLog:
                            dict(self.columns), self.fps, self.frame,
                            None if self.points is None else dict(self.points),
                            None if self.point_names is None else dict(self.point_names),
-                           self.leaves_sling))
+                           self.leaves_sling, self.lines))
 
     def legacy_attrs(self) -> dict[str, Any]:
         """The separate attrs keys of earlier releases (plain Python values)."""
