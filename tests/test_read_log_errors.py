@@ -312,3 +312,23 @@ def test_a_column_that_is_no_angle_is_reported_not_dropped_silently(tmp_path):
     with pytest.warns(TrebuchetDataWarning, match="'note' not used"):
         log = read_log(path)
     assert any("'note' not used" in r for r in log.attrs["repairs"])
+
+
+def test_an_absurd_value_under_a_stated_unit_names_its_row_not_the_header(tmp_path):
+    rows = good_rows()
+    rows[5] = "0.05,1e308,-80.0,-165.0"
+    msg = error_of(write(tmp_path, HEADER + "\n" + "\n".join(rows)))
+    assert "row 7, column 'theta (deg)'" in msg and "corrupt or misplaced" in msg
+    assert "say so in its header" not in msg
+
+
+def test_a_missing_angle_hint_speaks_the_callers_words(tmp_path):
+    """Python callers are told the keyword, command-line users the flag."""
+    from trebuchet.errors import command_line
+
+    rows = [r.rsplit(",", 1)[0] + ",7" for r in good_rows()]
+    path = write(tmp_path, "t (s),theta (deg),psi (deg),sling (deg)\n" + "\n".join(rows))
+    assert "columns={" in error_of(path)
+    with command_line():
+        cli = error_of(path)
+    assert "--column '<column in the file>=phi'" in cli and "columns=" not in cli

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import Option, TrebuchetInputError
 from trebuchet.ingest.readers.mapping import ROLES, Candidate, check_mapping, resolve
 
 #: Lower end of the 2π window holding each angle's first present value (rad).
@@ -69,7 +69,7 @@ def resolve_points(
         raise TrebuchetInputError(
             f"the angle {angle} needs the points {a} and {b}; no point for "
             f"{' and '.join(missing)} (points found: {found}); name it with "
-            f"points={{{missing[0]!r}: '<point in the file>'}}"
+            f"{Option.point(missing[0], '<point in the file>')}"
         )
     return chosen
 

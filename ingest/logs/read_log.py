@@ -27,6 +27,7 @@ inferred unit) is listed in the result's ``repairs`` (``attrs["log"]``, a
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -34,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.errors import Option, TrebuchetDataWarning, TrebuchetInputError
 from trebuchet.ingest.geometry.points import NEEDS, point_angles, resolve_points
 from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
 from trebuchet.ingest.geometry.stuck_points import off_engine, stuck_runs
@@ -196,10 +197,18 @@ def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None
             )
         largest = float(np.nanmax(np.abs(values)))
         if largest > MAX_ANGLE:
+            label = log.labels[angle]
+            if re.search(r"[(\[]\s*(deg|rad)", label, re.IGNORECASE) or angle_unit:
+                k = int(np.nanargmax(np.abs(values)))  # the unit is stated: a bad cell
+                raise TrebuchetInputError.at(
+                    f"row {log.rows[k]}, column '{label}'", f"{angle} = {largest:.4g} rad, "
+                    "more than two turns from zero, which no shot turns: a corrupt or "
+                    "misplaced value?")
             raise TrebuchetInputError.at(
-                f"column '{log.labels[angle]}'", f"{angle} reaches {largest:.4g} rad, more "
+                f"column '{label}'", f"{angle} reaches {largest:.4g} rad, more "
                 "than two turns from zero, which no shot turns; if the column holds degrees, "
-                f"say so in its header, e.g. '{angle} (deg)', or with angle_unit='deg'"
+                f"say so in its header, e.g. '{angle} (deg)', or with "
+                f"{Option('angle_unit', 'deg')}"
             )
     repairs = [d for d in log.decisions if "(inferred" in d] + list(log.repairs)
     for step in (drop_rows_without_angles, merge_duplicate_times):

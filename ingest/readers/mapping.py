@@ -12,7 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import Option, TrebuchetInputError
 
 ANGLES = ("theta", "psi", "phi")
 ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
@@ -123,18 +123,19 @@ def resolve(
             raise TrebuchetInputError(
                 f"ambiguous {what}s for {target}: "
                 f"{', '.join(repr(c.label) for c in defaults)}; say which with "
-                f"{arg}={_example(arg, defaults[0].label, target)}"
+                f"{_example(arg, defaults[0].label, target)}"
             )
         if defaults:
             chosen[target] = defaults[0]
     return chosen
 
 
-def _example(arg: str, name: str, target: str) -> str:
-    """A literal example of the mapping argument, for messages."""
+def _example(arg: str, name: str, target: str) -> Option:
+    """An example of the mapping argument, for messages (``columns={name: target}`` or
+    ``points={target: name}``, in the words of the interface called)."""
     if arg == "columns":
-        return "{" + f"{name!r}: {target!r}" + "}"
-    return "{" + f"{target!r}: {name!r}" + "}"
+        return Option.column(name, target)
+    return Option.point(target, name)
 
 
 def missing_angle_error(
@@ -144,5 +145,5 @@ def missing_angle_error(
     found = ", ".join(repr(c.label) for c in candidates) or "none"
     return TrebuchetInputError(
         f"no {what} for the angle {angle} ({what}s found: {found}); name it with "
-        f"columns={_example('columns', '<' + what + ' in the file>', angle)}"
+        f"{Option.column('<' + what + ' in the file>', angle)}"
     )
