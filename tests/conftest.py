@@ -29,3 +29,19 @@ def backyard() -> Scene:
 
 def deg(x: float) -> float:
     return math.degrees(x)
+
+
+@pytest.fixture(scope="session")
+def fmu_path(tmp_path_factory) -> Path:
+    """``trebuchet fmu build`` (FMI 2.0) once for the whole session: the FMU tests in fmpy,
+    libcosim and the C host share it (a build compiles the generated C, about 20 s)."""
+    import subprocess
+    import sys
+
+    path = tmp_path_factory.mktemp("fmu") / "Trebuchet.fmu"
+    proc = subprocess.run([sys.executable, "-m", "trebuchet.cli", "fmu", "build", "-o",
+                           str(path)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert path.is_file()
+    return path
+

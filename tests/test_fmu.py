@@ -43,16 +43,6 @@ def run_python(code: str, *args: str, timeout: float = 120) -> subprocess.Comple
                           capture_output=True, text=True, timeout=timeout, cwd=ROOT)
 
 
-@pytest.fixture(scope="session")
-def fmu_path(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("fmu") / "Trebuchet.fmu"
-    proc = subprocess.run([sys.executable, "-m", "trebuchet.cli", "fmu", "build", "-o",
-                           str(path)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    assert path.is_file()
-    return path
-
-
 def assert_outputs_equal(result, ref: pd.DataFrame, label: str, rel: float = REL) -> None:
     """Same phase at every time; every output within ``rel`` of its peak magnitude."""
     np.testing.assert_allclose(result["time"], ref["time"], rtol=0, atol=1e-12)

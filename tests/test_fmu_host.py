@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import shutil
 import subprocess
-import sys
 import zipfile
 from pathlib import Path
 
@@ -19,15 +18,6 @@ from trebuchet.fmu.interface import OUTPUT_NAMES
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 REL = 1e-8
-
-
-@pytest.fixture(scope="module")
-def fmu_path(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("fmu_host") / "Trebuchet.fmu"
-    proc = subprocess.run([sys.executable, "-m", "trebuchet.cli", "fmu", "build", "-o",
-                           str(path)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    return path
 
 
 @pytest.fixture(scope="module")

@@ -5,9 +5,6 @@ simulator."""
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,15 +15,6 @@ from trebuchet.fmu.interface import OUTPUT_NAMES
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="the build needs gcc")
 libcosimpy = pytest.importorskip("libcosimpy")
 REL = 1e-8
-
-
-@pytest.fixture(scope="module")
-def fmu_path(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("fmu_libcosim") / "Trebuchet.fmu"
-    proc = subprocess.run([sys.executable, "-m", "trebuchet.cli", "fmu", "build", "-o",
-                           str(path)], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    return path
 
 
 def test_libcosim_runs_the_fmu_as_the_simulator(fmu_path):
