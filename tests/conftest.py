@@ -45,3 +45,13 @@ def fmu_path(tmp_path_factory) -> Path:
     assert path.is_file()
     return path
 
+
+@pytest.fixture(scope="session")
+def exports(tmp_path_factory):
+    """Every tracker-export fixture of tests/exports, written once for the session:
+    ``(folder, {file name: truth})``."""
+    from tests.exports import write_all
+
+    folder = tmp_path_factory.mktemp("exports")
+    return folder, write_all(folder)
+

@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 
 import trebuchet
-from tests.exports import write_all
 from tests.exports.truth import Truth
 from trebuchet.errors import TrebuchetInputError
 
@@ -95,12 +94,6 @@ CASES = [
     Case("generic_time_ms.csv", "inferred"),
     Case("phone_upconverted_generic.csv", "user"),
 ]
-
-
-@pytest.fixture(scope="module")
-def exports(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("exports")
-    return folder, write_all(folder)
 
 
 def _read(folder, truth: Truth, case: Case):

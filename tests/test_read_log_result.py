@@ -5,33 +5,19 @@ from __future__ import annotations
 
 import copy
 import pickle
-import warnings
 
 import numpy as np
 import pandas as pd
 import pytest
 
 import trebuchet
-from tests.exports import write_all
+from tests.exports import read_export
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.logs.result import ReadLog, read_log_info
 
 
-@pytest.fixture(scope="module")
-def exports(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("exports")
-    return folder, write_all(folder)
-
-
-def _read(exports, name, **kwargs):
-    folder, truths = exports
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return trebuchet.read_log(folder / name, **(truths[name].read | kwargs))
-
-
 def test_the_result_is_one_read_log_shared_by_derived_tables(exports):
-    df = _read(exports, "kinovea_2024_classic_s.csv")
+    df = read_export(exports, "kinovea_2024_classic_s.csv")
     info = df.attrs["log"]
     assert isinstance(info, ReadLog) and read_log_info(df) is info
     assert info.format == "kinovea" and info.source.endswith("kinovea_2024_classic_s.csv")
@@ -64,7 +50,7 @@ def test_the_result_is_one_read_log_shared_by_derived_tables(exports):
     ("dlc_single.csv", {}, ("frame numbers", "y axis: down")),
 ])
 def test_every_unit_decision_is_recorded(exports, name, kwargs, words):
-    info = _read(exports, name, **kwargs).attrs["log"]
+    info = read_export(exports, name, **kwargs).attrs["log"]
     text = " | ".join(info.decisions)
     for word in words:
         assert word in text, text
@@ -89,7 +75,7 @@ def test_unknown_units_and_calibration_are_refused(exports):
 
 def test_a_frame_index_file_takes_no_other_time_unit(exports):
     with pytest.raises(TrebuchetInputError, match=r"dlc_single\.csv: time_unit='ms'"):
-        _read(exports, "dlc_single.csv", time_unit="ms")
+        read_export(exports, "dlc_single.csv", time_unit="ms")
 
 
 def test_the_refusals_of_an_hdf5_reader_reach_the_user_as_they_are(exports):

@@ -11,35 +11,22 @@ import numpy as np
 import pytest
 
 import trebuchet
-from tests.exports import write_all
+from tests.exports import read_export
 from tests.exports.shot import scene
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.cli import add_log_arguments, log_options
 from trebuchet.ingest.logs.scene_check import scene_check
 
 
-@pytest.fixture(scope="module")
-def exports(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("exports")
-    return folder, write_all(folder)
-
-
-def _read(exports, name, **kwargs):
-    folder, truths = exports
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return trebuchet.read_log(folder / name, **(truths[name].read | kwargs))
-
-
 def test_the_scene_check_finds_the_shot_and_names_a_wrong_factor(exports):
     sc = scene()
     for name in ("generic_deg.csv", "tracker_protractor_rad.txt", "kinovea_us.csv",
                  "sleap_untracked.analysis.csv"):
-        found = scene_check(_read(exports, name), sc)
+        found = scene_check(read_export(exports, name), sc)
         assert 0.8 < found.sweep_deg / found.sweep_sim_deg < 1.25, name
         assert 0.8 < found.time_s / found.time_sim_s < 1.25, name
         assert "the log's swing is the scene's" in found.note
-    df = _read(exports, "generic_deg.csv")
+    df = read_export(exports, "generic_deg.csv")
     ms = df.copy()
     ms["t"] *= 1000.0
     with pytest.raises(TrebuchetInputError, match=r"generic_deg\.csv: .*time.*ms read as s"):
@@ -52,7 +39,7 @@ def test_the_scene_check_finds_the_shot_and_names_a_wrong_factor(exports):
     deg["theta"] = np.radians(deg["theta"])
     with pytest.raises(TrebuchetInputError, match="sweep.*rad read as degrees"):
         scene_check(deg, sc)
-    frames = _read(exports, "dlc_single.csv")
+    frames = read_export(exports, "dlc_single.csv")
     frames["t"] *= 120.0
     with pytest.raises(TrebuchetInputError, match="frame numbers read as s"):
         scene_check(frames, sc)
@@ -77,7 +64,7 @@ def test_the_log_options_of_the_command_line():
 
 def test_a_log_without_the_start_or_the_fastest_point(exports):
     sc = scene()
-    df = _read(exports, "generic_deg.csv")
+    df = read_export(exports, "generic_deg.csv")
     moved = np.abs(df["theta"] - df["theta"].iloc[0]) > np.radians(10)
     late = df[moved.to_numpy()].reset_index(drop=True)  # starts mid-swing
     found = scene_check(late, sc)

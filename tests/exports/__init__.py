@@ -26,3 +26,17 @@ def write_all(folder: str | Path) -> dict[str, Truth]:
         for truth in module.write(folder):
             out[truth.name] = truth
     return out
+
+
+def read_export(exports: tuple[Path, dict[str, Truth]], name: str, **kwargs):
+    """``trebuchet.read_log`` of the fixture ``name`` with the keywords its truth documents
+    (``kwargs`` override them), repair warnings silenced."""
+    import warnings
+
+    import trebuchet
+
+    folder, truths = exports
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return trebuchet.read_log(folder / name, **(truths[name].read | kwargs))
+
