@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 import trebuchet as tb
+from trebuchet.ingest.synthetic.simulated_log import shot_truth
 from trebuchet.model.kinematics import counterweight_position, hinge_position, spigot_position
 
 __all__ = ["Filming", "POINTS", "shot_events", "frame_times", "truth_table", "engine_points",
@@ -28,8 +29,6 @@ __all__ = ["Filming", "POINTS", "shot_events", "frame_times", "truth_table", "en
 #: The tracked points, in the order of every (…, 5, 2) position array.
 POINTS = ("pivot", "spigot", "hinge", "counterweight", "projectile")
 
-ANGLES = ("theta", "psi", "phi")
-RATES = tuple(a + s for a in ANGLES for s in ("_d", "_dd"))
 
 
 @dataclass(frozen=True)
@@ -65,22 +64,7 @@ def truth_table(scene: tb.Scene, t: np.ndarray, trigger: float, after: float) ->
     ``trigger`` (s), plus ``t_shot`` (s after the trigger); rest rows before the trigger
     (phase 0, no motion, static loads). ``attrs["events"]``: trigger, lift-off, release in
     log time (s)."""
-    t = np.asarray(t, dtype=float)
-    run = tb.simulate(scene, t_eval=np.clip(t - trigger, 0.0, None), after_release=after)
-    events = dict(run.attrs["events"])
-    resting = t <= trigger
-    if resting.any():
-        rest = run.loc[resting, ["t", "phase", *ANGLES, *RATES]].copy()
-        rest[list(RATES)] = 0.0
-        rest["phase"] = scene.phases[0]
-        still = tb.forces(rest, scene)
-        run.loc[resting, still.columns] = still.to_numpy()
-        run.loc[resting, "phase"] = 0
-    run.insert(0, "t_shot", t - trigger)
-    run["t"] = t
-    run.attrs["events"] = {"trigger": trigger} | {
-        k: trigger + v for k, v in events.items() if k in ("lift_off", "release")}
-    return run
+    return shot_truth(scene, t, trigger, after)
 
 
 def engine_points(scene: tb.Scene, table: pd.DataFrame) -> np.ndarray:
