@@ -56,6 +56,7 @@ from trebuchet.ingest.events.release_model import (
     scene_doubt,
 )
 from trebuchet.ingest.events.sling_continuation import continued_sling
+from trebuchet.ingest.geometry.user_calibration import read_calibration
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.logs.scene_check import scene_check
@@ -672,7 +673,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     fps, columns, points, min_likelihood, time_unit, angle_unit, individual, calibration :
         as for ``read_log`` (a log read from a file is then checked against the scene:
         :func:`~trebuchet.ingest.logs.scene_check.scene_check` refuses a beam whose sweep or
-        timing is off by a factor of 57, 1000 or the frame rate).
+        timing is off by a factor of 57, 1000 or the frame rate). ``calibration``, the
+        user's own (known plane points, or an OpenCV camera file), is read once; a camera
+        file alone fixes the lens only, not the plane's tilt (a note says so; with
+        ``options.image_calibration="engine"`` the engine's geometry fits the rest).
     events : ``{"trigger", "lift_off", "release"}`` in the log's time (s), overriding
         detection; None = no such event in the log. A given time must lie inside the log
         and the given ones be ordered trigger < lift_off < release, else
@@ -712,9 +716,12 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     if changes:
         options = dataclasses.replace(options, **changes)
     scene = as_scene(scene, "reconstruct")
+    user = read_calibration(calibration) if calibration is not None else None
     read_options = {"min_likelihood": min_likelihood, "time_unit": time_unit,
-                    "angle_unit": angle_unit, "individual": individual,
-                    "calibration": calibration}
+                    "angle_unit": angle_unit, "individual": individual, "calibration": user}
+    if user is not None and isinstance(path_or_log, pd.DataFrame):
+        raise TrebuchetInputError("reconstruct: calibration= applies to a log file of tracked "
+                                  "points, not to a table of angles")
     log = _log_frame(path_or_log, fps, columns, points, read_options)
     source = str(log.attrs.get("source", "log"))
     swing = scene_check(log, scene) if read_log_info(log) is not None else None

@@ -39,6 +39,11 @@ from trebuchet.errors import Option, TrebuchetDataWarning, TrebuchetInputError
 from trebuchet.ingest.geometry.points import NEEDS, point_angles, resolve_points
 from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
 from trebuchet.ingest.geometry.stuck_points import off_engine, stuck_runs
+from trebuchet.ingest.geometry.user_calibration import (
+    RESIDUAL_WARN_PX,
+    UserCalibration,
+    read_calibration,
+)
 from trebuchet.ingest.logs.repairs import (
     drop_repeated_frames,
     drop_rows_without_angles,
@@ -99,7 +104,7 @@ def read_log(
     angle_unit: str | None = None,
     min_likelihood: float = MIN_LIKELIHOOD,
     individual: str | None = None,
-    calibration: str | Path | None = None,
+    calibration: str | Path | UserCalibration | None = None,
 ) -> pd.DataFrame:
     """Read an angle log; return columns ``t`` (s), ``theta``, ``psi``, ``phi`` (rad).
 
@@ -139,7 +144,12 @@ def read_log(
         The individual (DeepLabCut multi-animal) or track (SLEAP) that is the engine;
         needed when the file has several.
     calibration:
-        A camera calibration file: not supported yet (refused).
+        The user's own calibration of the camera, for files of tracked points in image
+        pixels (DeepLabCut, SLEAP): a file of four or more known points of the engine's
+        plane (CSV or TOML; the positions are then in m on that plane) or an OpenCV camera
+        file (YAML, XML, JSON; the positions are then the lens-free pixels), see
+        :mod:`trebuchet.ingest.geometry.user_calibration` and docs/formats.md. A decision
+        sentence says what it fixed.
 
     Returns
     -------
@@ -160,20 +170,26 @@ def read_log(
     """
     time_unit = check_time_unit(time_unit)
     angle_unit = check_angle_unit(angle_unit)
-    if calibration is not None:
-        raise TrebuchetInputError(
-            f"calibration={str(calibration)!r}: a camera calibration is not supported yet")
+    if calibration is not None and not isinstance(calibration, UserCalibration):
+        calibration = read_calibration(calibration)
     try:
         log, repairs = _read(path, fps, columns, points, min_likelihood, individual,
-                             time_unit, angle_unit)
+                             time_unit, angle_unit, calibration)
     except TrebuchetInputError as exc:  # the file's name, once, in front of the place
         raise exc.in_file(path) from None
+    if calibration is not None and (calibration.residual_px or 0.0) > RESIDUAL_WARN_PX:
+        warnings.warn(f"{Path(calibration.source).name}: the known points miss their "
+                      f"homography by {calibration.residual_px:.2f} px rms (more than "
+                      f"{RESIDUAL_WARN_PX:g} px): a mistyped point, or a lens that bends (give "
+                      "its camera matrix and distortion in the same file)",
+                      TrebuchetDataWarning, stacklevel=2)
     return _frame(path, log, repairs)
 
 
 def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None,
           points: Mapping[str, str] | None, min_likelihood: float, individual: str | None,
-          time_unit: str | None, angle_unit: str | None) -> tuple[ParsedLog, list[str]]:
+          time_unit: str | None, angle_unit: str | None,
+          calibration: UserCalibration | None = None) -> tuple[ParsedLog, list[str]]:
     """:func:`read_log` up to the result table: the log and its repair notes. Errors name the
     place in the file but not the file."""
     fps = check_fps(fps)
@@ -188,7 +204,7 @@ def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None
     check_time(source.t, source.rows, source.time_label)
     check_frame_rate(source.t, source.time_label, fps)
     _snap_decimal_times(source, fps)
-    log = _choose_angles(source, mapping, points, angle_unit)
+    log = _choose_angles(source, mapping, points, angle_unit, calibration)
     for angle in ANGLES:
         values = log.angles[angle]
         if np.isnan(values).all():
@@ -304,6 +320,7 @@ def _choose_angles(
     mapping: dict[str, str],
     points: Mapping[str, str] | None,
     angle_unit: str | None = None,
+    calibration: UserCalibration | None = None,
 ) -> ParsedLog:
     """Pick the angle columns (or compute the angles from points) of ``source``."""
     use_points = points is not None or (
@@ -321,7 +338,11 @@ def _choose_angles(
                 "give either columns= (angle columns) or points= (point positions), "
                 "not both"
             )
-        return _from_points(source, points)
+        return _from_points(source, points, calibration)
+    if calibration is not None:
+        raise TrebuchetInputError(
+            f"calibration= is for files of tracked points in image pixels; this {source.fmt} "
+            "file holds angles")
     chosen = resolve(source.angle_columns, mapping, ANGLES, "columns", "column")
     for angle in ANGLES:
         if angle not in chosen:
@@ -367,8 +388,13 @@ def _has_default_angles(source: LogSource) -> bool:
 TIED = {"spigot": "pivot", "hinge": "beam", "counterweight": "hinge", "projectile": "spigot"}
 
 
+#: Formats whose points are image pixels: a user's calibration applies to them.
+PIXEL_FORMATS = ("deeplabcut", "sleap")
+
+
 def _from_points(
-    source: LogSource, points: Mapping[str, str] | None
+    source: LogSource, points: Mapping[str, str] | None,
+    calibration: UserCalibration | None = None,
 ) -> ParsedLog:
     """The angles from the point positions named by ``points`` (see :mod:`.angles_from_points`)."""
     chosen = resolve_points(source.point_tracks, dict(points) if points else None)
@@ -389,6 +415,14 @@ def _from_points(
         decisions.append(decision)
         if down:
             positions = {r: (x, -y) for r, (x, y) in positions.items()}
+    if calibration is not None:
+        if source.fmt not in PIXEL_FORMATS:
+            raise TrebuchetInputError(
+                f"calibration= is for points in image pixels (DeepLabCut, SLEAP); this "
+                f"{source.fmt} file's positions are not known to be pixels")
+        positions = {r: tuple(calibration.to_plane(np.column_stack(xy)).T)
+                     for r, xy in positions.items()}
+        decisions.append(calibration.describe())
     for run in stuck_runs(positions):  # a tracker held on an occluder: gaps, named
         x, y = (v.copy() for v in positions[run.point])
         x[run.first:run.last + 1] = np.nan
