@@ -87,7 +87,10 @@ def add_log_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--individual", metavar="NAME",
                    help="the DeepLabCut individual or SLEAP track that is the engine")
     p.add_argument("--calibration", metavar="FILE",
-                   help="camera calibration file (not supported yet)")
+                   help="your own camera calibration, for DeepLabCut/SLEAP pixel tracks: "
+                        "four or more known points of the engine's plane (CSV u,v px; x,y m, "
+                        "or TOML [[point]]) or an OpenCV camera file (YAML, XML, JSON: "
+                        "camera_matrix, distortion_coefficients); docs/formats.md")
 
 
 def log_options(args: argparse.Namespace) -> dict[str, object]:
