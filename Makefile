@@ -39,10 +39,17 @@ install-test: $(VENV)/.installed-test
 
 DEMO_LOG := data_samples/horsdal_240fps.csv
 DEMO_SCENE := data_samples/horsdal_large.toml
+# A shot rendered and tracked by the video bench (DeepLabCut pixels, a camera pitched up 4°)
+# with the user's own calibration of it (six known points of the engine's plane).
+DEMO_VIDEO := data_samples/video_paper_dlc.csv
+DEMO_VIDEO_SCENE := data_samples/video_paper.toml
+DEMO_VIDEO_CALIBRATION := data_samples/video_paper_points.csv
 
 demo: install
 	$(BIN)/trebuchet compare $(DEMO_LOG) --scene $(DEMO_SCENE) -o demo_report
-	@echo "Report: $(CURDIR)/demo_report/index.html"
+	$(BIN)/trebuchet forces $(DEMO_VIDEO) --scene $(DEMO_VIDEO_SCENE) --fps 240 \
+	    --calibration $(DEMO_VIDEO_CALIBRATION) -o demo_report/video_loads.csv
+	@echo "Report: $(CURDIR)/demo_report/index.html; loads of the tracked video: $(CURDIR)/demo_report/video_loads.csv"
 
 test: install-test
 	$(BIN)/ruff check .

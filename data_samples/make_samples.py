@@ -509,6 +509,34 @@ TRACKED_VIDEO = (
     ("video_tilted.toml",
      "Scene file of `video_tilted_dlc.csv`: the paper's engine (equal to "
      "`horsdal_large.toml`) with a header naming the camera."),
+    ("video_paper_dlc.csv",
+     "DeepLabCut CSV tracked from rendered video of `video_paper.toml` (the paper's engine, "
+     "equal to `horsdal_large.toml`), the tracked shot of `make demo`: a simulated camera "
+     "40 m away pitched up 4°, rolled 0.5°, radial distortion k1 = −0.02, 640×480 px, 240 "
+     "fps at a 1/1000 s shutter, lens blur, sensor noise, the near frame's legs and brace in "
+     "front of the engine; markers tracked by masked template matching (OpenCV) from clicks "
+     "on frame 0 only, likelihood = match score; bodyparts `pivot`, `spigot`, `hinge`, "
+     "`counterweight`, `projectile` in image pixels (y down, not undistorted); frame index "
+     "0–527 (trigger at frame 240, t = 1 s; release at 1.997 s); 128 positions with "
+     "likelihood below 0.9 (hinge 41 and counterweight 40 behind frame members, stone 47 in "
+     "flight). Seed `16`. Written by `python -m bench.video.sample` (bench/video), not by "
+     "make_samples.py. Read: `read_log(path, fps=240, calibration="
+     "'data_samples/video_paper_points.csv')`; `trebuchet forces "
+     "data_samples/video_paper_dlc.csv --scene data_samples/video_paper.toml --fps 240 "
+     "--calibration data_samples/video_paper_points.csv`."),
+    ("video_paper.toml",
+     "Scene file of `video_paper_dlc.csv`: the paper's engine (equal to `horsdal_large.toml`) "
+     "with a header naming the camera."),
+    ("video_paper_points.csv",
+     "The user's own calibration of `video_paper_dlc.csv`'s camera: six points of the "
+     "engine's plane surveyed before the shot (`x (m)`, `y (m)`: the paper's axes, ground "
+     "under the pivot at 0) and their pixels `u (px)`, `v (px)` (rows down) as clicked on "
+     "the first frame, 0.5 px sd. Read by `calibration=` / `--calibration` (docs/formats.md): "
+     "a homography, reprojection residual 0.43 px."),
+    ("video_paper_camera.yml",
+     "The camera of `video_paper_dlc.csv` as OpenCV's FileStorage YAML (`camera_matrix`, "
+     "`distortion_coefficients`, `image_width`, `image_height`): fixes the lens only, not "
+     "the 4° tilt (docs/formats.md)."),
 )
 
 #: The README's section on reading each sample from the command line (issue 17: the hints
@@ -533,6 +561,8 @@ COMMAND_LINE = [
     '        --fps 120 --point pivot=axle --point spigot=arm_tip --point hinge=hinge \\',
     '        --point counterweight=weight --point projectile=stone     # --min-likelihood 0.9',
     '    trebuchet forces $S/backyard_240fps.csv --scene $S/backyard.toml -o loads.csv',
+    '    trebuchet forces $S/video_paper_dlc.csv --scene $S/video_paper.toml -o loads.csv \\',
+    '        --fps 240 --calibration $S/video_paper_points.csv   # or $S/video_paper_camera.yml',
     '    trebuchet compare $S/horsdal_dlc.csv --scene $S/horsdal_large.toml -o report/ \\',
     '        --fps 120 --point pivot=axle ...  '
     '# the same options, and --trigger, --lift-off, --release',
@@ -564,7 +594,8 @@ def readme_text(samples: list[Sample]) -> str:
         "hinge + L3 e_ψ, projectile = spigot + L4 e_φ.",
         "",
         "`horsdal_large.toml` is the paper's engine (Table 1); `horsdal_240fps.csv` is the "
-        "sample of `make demo`.",
+        "sample of `make demo`, `video_paper_dlc.csv` its tracked shot (with its "
+        "calibration `video_paper_points.csv`).",
         "",
         "| file | what it holds |",
         "|---|---|",

@@ -774,6 +774,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                               "jump search alone"]
     if swing is not None and swing.note:
         est.attrs["notes"] = [*est.attrs.get("notes", []), swing.note]
+    if user is not None:
+        est.attrs["notes"] = [*est.attrs.get("notes", []), user.describe()]
     if calibrated is not None:
         est = widened_by_calibration(est, calibrated.common_sd)
         est.attrs["notes"] = [*est.attrs.get("notes", []), *calibrated.notes]

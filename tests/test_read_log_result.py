@@ -65,8 +65,8 @@ def test_unknown_units_and_calibration_are_refused(exports):
         trebuchet.read_log(path, time_unit="min")
     with pytest.raises(TrebuchetInputError, match="angle_unit='grad'"):
         trebuchet.read_log(path, angle_unit="grad")
-    with pytest.raises(TrebuchetInputError, match="not supported yet"):
-        trebuchet.read_log(path, calibration="cam.toml")
+    with pytest.raises(TrebuchetInputError, match=r"cam\.toml: cannot be read"):
+        trebuchet.read_log(path, calibration="cam.toml")   # no such file
     with pytest.raises(TrebuchetInputError, match=r"generic_deg\.csv.*says 's'"):
         trebuchet.read_log(path, time_unit="ms")  # the header states s
     with pytest.raises(TrebuchetInputError, match="individual='ind1'.*no individuals"):
