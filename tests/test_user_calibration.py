@@ -208,3 +208,28 @@ def test_calibration_on_the_command_line_and_its_refusals(tmp_path, capsys):
         assert main(["forces", str(path), "--scene", scene, "--fps", "240", "-o", str(out),
                      "--calibration", str(_filestorage(tmp_path / "c.yml"))]) == 0
     assert out.exists()
+
+
+def test_a_mistyped_known_point_warns_and_a_table_of_angles_refuses(tmp_path):
+    scene = tb.Scene.from_toml(BACKYARD)
+    path, truth, cam, box = _synthetic_dlc(tmp_path, scene, Pose(6.6, 5.0, 0.0, 0.0), 0.3)
+    x0, y0, x1, y1 = box
+    xy = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1], [(x0 + x1) / 2, y0],
+                   [(x0 + x1) / 2, y1]])
+    uv = project(cam, xy)
+    uv[2, 1] += 30.0                                          # one v mistyped: 372 for 342
+    csv = tmp_path / "points.csv"
+    csv.write_text("u,v,x,y\n" + "".join(f"{u},{v},{x},{y}\n" for (u, v), (x, y)
+                                          in zip(uv, xy, strict=True)))
+    with pytest.warns(TrebuchetDataWarning, match=r"points\.csv: the known points miss"):
+        tb.read_log(path, fps=240, calibration=csv)
+    uv[2, 1] -= 30.0
+    csv.write_text("u,v,x,y\n" + "".join(f"{u},{v},{x},{y}\n" for (u, v), (x, y)
+                                          in zip(uv, xy, strict=True)))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        tb.read_log(path, fps=240, calibration=csv)
+    assert not [w for w in seen if "known points miss" in str(w.message)]
+    table = tb.read_log(SAMPLES / "backyard_240fps.csv")
+    with pytest.raises(TrebuchetInputError, match="not to a table of angles"):
+        tb.reconstruct(table, scene, calibration=csv)
