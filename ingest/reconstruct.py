@@ -71,6 +71,7 @@ from trebuchet.ingest.smoothing.smooth import (
     validated_log,
 )
 from trebuchet.ingest.uncertainty import propagate
+from trebuchet.ingest.user_calibrated import posed_log
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.loads import loads
 from trebuchet.model.scene import Scene, as_scene
@@ -674,9 +675,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         as for ``read_log`` (a log read from a file is then checked against the scene:
         :func:`~trebuchet.ingest.logs.scene_check.scene_check` refuses a beam whose sweep or
         timing is off by a factor of 57, 1000 or the frame rate). ``calibration``, the
-        user's own (known plane points, or an OpenCV camera file), is read once; a camera
-        file alone fixes the lens only, not the plane's tilt (a note says so; with
-        ``options.image_calibration="engine"`` the engine's geometry fits the rest).
+        user's own (known plane points, or an OpenCV camera file), is read once; for a
+        camera file alone the plane's tilt and roll are found from the engine's geometry
+        (:mod:`.user_calibrated`; with ``options.image_calibration="engine"`` the
+        self-calibration fits them instead); a note says what was found.
     events : ``{"trigger", "lift_off", "release"}`` in the log's time (s), overriding
         detection; None = no such event in the log. A given time must lie inside the log
         and the given ones be ordered trigger < lift_off < release, else
@@ -724,6 +726,9 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                                   "points, not to a table of angles")
     log = _log_frame(path_or_log, fps, columns, points, read_options)
     source = str(log.attrs.get("source", "log"))
+    posed: tuple[str, ...] = ()
+    if user is not None and options.image_calibration != "engine":
+        log, posed = posed_log(log, scene, user)   # a camera file alone: the plane's pose
     swing = scene_check(log, scene) if read_log_info(log) is not None else None
     calibrated = calibrated_log(log, scene) if options.image_calibration == "engine" else None
     if calibrated is not None:
@@ -775,7 +780,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     if swing is not None and swing.note:
         est.attrs["notes"] = [*est.attrs.get("notes", []), swing.note]
     if user is not None:
-        est.attrs["notes"] = [*est.attrs.get("notes", []), user.describe()]
+        est.attrs["notes"] = [*est.attrs.get("notes", []), user.describe(), *posed]
     if calibrated is not None:
         est = widened_by_calibration(est, calibrated.common_sd)
         est.attrs["notes"] = [*est.attrs.get("notes", []), *calibrated.notes]
