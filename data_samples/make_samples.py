@@ -535,8 +535,8 @@ TRACKED_VIDEO = (
      "a homography, reprojection residual 0.43 px."),
     ("video_paper_camera.yml",
      "The camera of `video_paper_dlc.csv` as OpenCV's FileStorage YAML (`camera_matrix`, "
-     "`distortion_coefficients`, `image_width`, `image_height`): fixes the lens only, not "
-     "the 4° tilt (docs/formats.md)."),
+     "`distortion_coefficients`, `image_width`, `image_height`): fixes the lens; "
+     "`reconstruct` then finds the 4° tilt from the engine's geometry (docs/formats.md)."),
 )
 
 #: The README's section on reading each sample from the command line (issue 17: the hints
