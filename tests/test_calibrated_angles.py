@@ -11,6 +11,7 @@ import pytest
 from trebuchet.ingest.calibrated_angles import (
     beam_length,
     calibrated_log,
+    disagreement_deg,
     pixel_factor,
     point_tracks,
     widened_by_calibration,
@@ -95,6 +96,33 @@ def test_a_hidden_marker_changes_no_other_angle(horsdal, tilted):
     assert moved.max() < 0.02
     assert np.isnan(out.log["psi"].to_numpy()[hidden]).all()
     assert np.isfinite(out.log["psi"].to_numpy()[70:80]).all()
+
+
+def test_a_calibration_caught_in_a_wrong_camera_is_refused_with_a_warning(
+        horsdal, tilted, monkeypatch):
+    """A fit whose camera turns the image by 40° (as one caught in a wrong minimum did on the
+    backyard engine at 10° tilt) puts the angles far from the image's own: the log keeps
+    the image's angles, no calibration sd, and a warning says why."""
+    import dataclasses
+
+    import trebuchet.ingest.calibrated_angles as module
+
+    real = module.calibrate
+
+    def rolled(*args, **kwargs):
+        cal = real(*args, **kwargs)
+        wrong = camera_from_pose(2500.0, SIZE, 40.0, (0.0, 6.0), pitch=np.radians(10.0),
+                                 roll=np.radians(40.0))
+        return dataclasses.replace(cal, camera=wrong)
+
+    monkeypatch.setattr(module, "calibrate", rolled)
+    _, log = tilted
+    out = calibrated_log(log, horsdal)
+    np.testing.assert_array_equal(out.log[["theta", "psi", "phi"]].to_numpy(),
+                                  log[["theta", "psi", "phi"]].to_numpy())
+    assert all((sd == 0).all() for sd in out.common_sd.values())
+    assert len(out.warnings) == 1 and "was not used" in out.warnings[0]
+    assert disagreement_deg(log, out.log) == 0.0
 
 
 def test_a_log_of_angles_is_left_alone(horsdal, tilted):
