@@ -87,17 +87,20 @@ def pixel_factor(tracks: dict[str, np.ndarray], fmt: str | None) -> float:
     return PSEUDO_PIXEL_BEAM / beam
 
 
-def calibrated_log(log: pd.DataFrame, scene: Scene) -> CalibratedLog | None:
+def calibrated_log(log: pd.DataFrame, scene: Scene, *, in_pixels: bool | None = None
+                   ) -> CalibratedLog | None:
     """``log`` with ``theta``, ``psi``, ``phi`` from the calibration of its tracked points
     against ``scene``, or None where the log holds no points (or too few to fit). The
     projectile after it leaves the sling is fitted on the scene's vacuum parabola; φ stays
-    NaN where ``read_log`` found the stone in flight."""
+    NaN where ``read_log`` found the stone in flight. ``in_pixels``: whether the points are
+    image pixels (None: from the log's format; False for points a user's calibration took
+    to the plane in m)."""
     tracks = point_tracks(log)
     if tracks is None or not ({"spigot", "hinge"} & set(tracks)):
         return None
     t = log["t"].to_numpy(dtype=float)
     vacuum = scene.flight.model == "vacuum"
-    factor = pixel_factor(tracks, read_log_info(log).format)
+    factor = pixel_factor(tracks, read_log_info(log).format if in_pixels is not False else None)
     if factor != 1.0:  # world units (m, cm): the priors speak of pixels
         tracks = {role: xy * factor for role, xy in tracks.items()}
     cal = calibrate(tracks, scene.engine, H=scene.start.H, g=scene.g if vacuum else None,
@@ -117,8 +120,34 @@ def calibrated_log(log: pd.DataFrame, scene: Scene) -> CalibratedLog | None:
     scaled = (f"(the points, in the file's length unit, were fitted scaled by {factor:.4g} "
               "to pseudo-pixels: px above means that unit / "
               f"{factor:.4g})",) if factor != 1.0 else ()
-    notes = (cal.summary(), *scaled, *cal.notes, *flagged)
+    notes = (cal.summary(), *scaled, *(n for n in cal.notes if n not in flagged), *flagged)
+    apart = disagreement_deg(log, out)
+    if apart > MAX_DISAGREEMENT_DEG:
+        refused = (f"the engine's self-calibration of the image was not used: the camera it "
+                   f"found ({cal.summary()}) puts the angles a median {apart:.1f}° from the "
+                   f"image's own (more than {MAX_DISAGREEMENT_DEG:g}°), a fit caught in a "
+                   "wrong camera; the angles are the image's, as read")
+        zero = {name: np.zeros(len(log)) for name in common}
+        return CalibratedLog(log.copy(), cal, zero, (refused,), (refused,))
     return CalibratedLog(out, cal, common, notes, flagged)
+
+
+#: Self-calibrated angles further than this (°, median over the frames, the worst of θ,
+#: ψ, φ) from the image's own are refused: a camera tilted by up to 15° and rolled by 1°
+#: moves them by at most 1.5° (the video bench), a fit caught in a wrong camera (a
+#: 40° roll on the backyard engine filmed at 10° tilt) by tens of degrees.
+MAX_DISAGREEMENT_DEG = 5.0
+
+
+def disagreement_deg(log: pd.DataFrame, calibrated: pd.DataFrame) -> float:
+    """The largest over θ, ψ, φ of the median |calibrated − read| angle (°)."""
+    worst = 0.0
+    for name in ("theta", "psi", "phi"):
+        d = calibrated[name].to_numpy(dtype=float) - log[name].to_numpy(dtype=float)
+        d = np.abs(np.angle(np.exp(1j * d)))
+        if np.isfinite(d).any():
+            worst = max(worst, float(np.degrees(np.nanmedian(d))))
+    return worst
 
 
 def mapped_angles(tracks: dict[str, np.ndarray], cal: Calibration) -> dict[str, np.ndarray]:
@@ -128,9 +157,9 @@ def mapped_angles(tracks: dict[str, np.ndarray], cal: Calibration) -> dict[str, 
     taken off, the lens undone and the projective map inverted (``Camera.unproject``).
 
     Not the calibration's own per-frame angles (``cal.theta`` …, a constrained fit of every
-    point of the frame): where the set of tracked points changes (a marker hidden by a
-    frame member for a few frames) that fit steps by the points' small misfits, and the
-    smoother reads the step as an acceleration. Measured on rendered and tracked shots
+    point of the frame): where its constraints switch (the stone leaving the trough) or
+    the set of tracked points changes, that fit steps by the points' small misfits, and
+    the smoother reads the step as an acceleration. Measured on rendered and tracked shots
     (240 fps, frame members in front): the paper engine, 10° tilt, |F_R| RMS error 37 % of
     its peak with the fit's angles, 3.3 % with these (3.3 % raw, θ RMS 0.42° raw, 0.20°
     both); the backyard engine, 10° tilt, 19 % against 0.8 % (1.4 % raw)."""

@@ -11,6 +11,7 @@ import pytest
 from trebuchet.ingest.calibrated_angles import (
     beam_length,
     calibrated_log,
+    disagreement_deg,
     pixel_factor,
     point_tracks,
     widened_by_calibration,
@@ -97,6 +98,33 @@ def test_a_hidden_marker_changes_no_other_angle(horsdal, tilted):
     assert np.isfinite(out.log["psi"].to_numpy()[70:80]).all()
 
 
+def test_a_calibration_caught_in_a_wrong_camera_is_refused_with_a_warning(
+        horsdal, tilted, monkeypatch):
+    """A fit whose camera turns the image by 40° (as one caught in a wrong minimum did on the
+    backyard engine at 10° tilt) puts the angles far from the image's own: the log keeps
+    the image's angles, no calibration sd, and a warning says why."""
+    import dataclasses
+
+    import trebuchet.ingest.calibrated_angles as module
+
+    real = module.calibrate
+
+    def rolled(*args, **kwargs):
+        cal = real(*args, **kwargs)
+        wrong = camera_from_pose(2500.0, SIZE, 40.0, (0.0, 6.0), pitch=np.radians(10.0),
+                                 roll=np.radians(40.0))
+        return dataclasses.replace(cal, camera=wrong)
+
+    monkeypatch.setattr(module, "calibrate", rolled)
+    _, log = tilted
+    out = calibrated_log(log, horsdal)
+    np.testing.assert_array_equal(out.log[["theta", "psi", "phi"]].to_numpy(),
+                                  log[["theta", "psi", "phi"]].to_numpy())
+    assert all((sd == 0).all() for sd in out.common_sd.values())
+    assert len(out.warnings) == 1 and "was not used" in out.warnings[0]
+    assert disagreement_deg(log, out.log) == 0.0
+
+
 def test_a_log_of_angles_is_left_alone(horsdal, tilted):
     _, log = tilted
     plain = log.copy()
@@ -128,7 +156,7 @@ def test_the_calibration_widens_the_angle_bands_in_quadrature():
     assert np.allclose(smoothing_of(est).cov["theta"][:, 0, 0], 9e-6)  # input untouched
 
 
-def test_reconstruct_takes_the_calibrated_angles_when_asked(horsdal, tilted):
+def test_reconstruct_takes_the_calibrated_angles_unless_told_not_to(horsdal, tilted):
     import warnings
 
     from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
@@ -136,8 +164,8 @@ def test_reconstruct_takes_the_calibrated_angles_when_asked(horsdal, tilted):
     track, log = tilted
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        plain = reconstruct(log, horsdal)
-        fitted = reconstruct(log, horsdal, options=ReconstructOptions(image_calibration="engine"))
+        plain = reconstruct(log, horsdal, options=ReconstructOptions(image_calibration="none"))
+        fitted = reconstruct(log, horsdal)
     assert any("calibrated by the engine" in n for n in reconstruction_of(fitted).notes)
     assert not any("calibrated by the engine" in n for n in reconstruction_of(plain).notes)
     ok = np.isfinite(fitted["theta"]) & np.isfinite(plain["theta"])
