@@ -257,3 +257,25 @@ def test_a_camera_file_with_the_engines_geometry_takes_out_the_tilt(tmp_path, po
     assert "found from the engine's geometry" in notes[0]
     for a in ("theta", "psi", "phi"):
         assert posed[a] < gain * raw[a], (a, raw, posed)
+
+
+def test_known_points_reach_the_engines_fit_in_metres(tmp_path):
+    """With the self-calibration on (the default), a log the user's known points took to the
+    plane (m) is fitted in pseudo-pixels, not as pixels of a DeepLabCut file, and the notes
+    say what the calibration did."""
+    from trebuchet.ingest.reconstruction import reconstruction_of
+
+    scene = tb.Scene.from_toml(BACKYARD)
+    path, truth, cam, box = _synthetic_dlc(tmp_path, scene, Pose(6.6, 10.0, 0.3, 0.0), 0.3)
+    x0, y0, x1, y1 = box
+    xy = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    uv = project(cam, xy)
+    (tmp_path / "points.toml").write_text("".join(
+        f"[[point]]\nu = {u}\nv = {v}\nx = {x}\ny = {y}\n" for (u, v), (x, y)
+        in zip(uv, xy, strict=True)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = tb.reconstruct(path, scene, fps=240, calibration=tmp_path / "points.toml")
+    notes = " ".join(reconstruction_of(res).notes)
+    assert "homography of 4 known points" in notes
+    assert "pseudo-pixels" in notes
