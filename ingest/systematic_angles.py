@@ -1,0 +1,176 @@
+"""Systematic angle errors a log shows against the engine's own geometry.
+
+A tracked angle's error is not only the white noise the smoother models: a tilted or
+rolled camera, lens distortion and a marker clicked off its point bias every angle by
+0.1–3° (bench/video_accuracy.py: θ at rest 0.06° off on a fronto-parallel camera, 1.1°
+with 1° of roll; ψ of the plumb counterweight 0.4° off on the fronto-parallel camera, 2–3.7°
+under a 15° tilt), slowly varying with the pose. The smoother averages white noise away,
+so its sd of an angle is a few thousandths of a degree and the loads that depend on the
+angles themselves (the weights' components: F_R_x through ψ, F_S_y through θ) get bands
+that hold the truth 5–60 % of the time. Two things every log with a rest and a scene shows
+measure that error without the truth:
+
+- **the rest pose**: before the trigger the engine stands in the scene's start pose (the
+  counterweight hangs plumb at ψ = −90°, the beam on its stop at θ₀, the sling at φ₀);
+  the median of each angle over the rest rows less that angle is its offset there. Its
+  square, less the median's own sampling variance (``π/2 · s² / n`` for ``n`` rows of
+  robust sd ``s``), is an unbiased estimate of the squared bias.
+- **the segment lengths** (point logs): the beam's arm pivot→spigot (θ), the counterweight's
+  arm hinge→counterweight (ψ) and the sling spigot→projectile while it holds the stone (φ)
+  have constant lengths. An in-plane linear distortion ``s (I + E)`` (``E`` symmetric,
+  traceless, the anisotropic part a pitched camera's foreshortening makes) changes the
+  relative length of a segment at angle ``a`` by ``e cos 2(a − a_E)`` and its angle by
+  ``−e sin 2(a − a_E)``, and a marker offset ``δ`` fixed in the image changes them by
+  ``δ/L cos(a − a_δ)`` and ``δ/L sin(a − a_δ)``: the same amplitude, a quarter period
+  apart. So the sd (over the rows) of the segment's relative length, less its median and
+  median-filtered over 9 frames against the tracking's white noise, measures the sd of
+  the angle's varying error (in rad). A perspective's depth scale (far parts smaller) also
+  changes the lengths without turning the angles: the measure errs on the wide side.
+
+The systematic sd of angle ``a`` is ``√(max(b² − var_b, 0) + m²)`` (``b`` the rest offset,
+``m`` the length misfit), added to the angle's variance on every row of the smoothed log
+(the rates and accelerations are left: a bias constant over the shot has none). Units:
+radians throughout.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from trebuchet.ingest.calibrated_angles import widened_by_calibration
+from trebuchet.ingest.logs.result import read_log_info
+from trebuchet.model.scene import Scene
+
+__all__ = ["SystematicAngles", "rest_pose_offsets", "segment_length_misfit",
+           "systematic_angles", "with_systematic_angles", "SEGMENTS", "MEDIAN_FRAMES"]
+
+ANGLES = ("theta", "psi", "phi")
+#: The points whose distance is the constant length of each angle's segment.
+SEGMENTS: dict[str, tuple[str, str]] = {"theta": ("pivot", "spigot"),
+                                        "psi": ("hinge", "counterweight"),
+                                        "phi": ("spigot", "projectile")}
+#: Frames of the running median that keeps the slow part of a segment's length misfit.
+MEDIAN_FRAMES = 9
+#: sd of the rate error per unit of the length misfit and of the angle's rate: an error
+#: ``e sin 2(a − a_E)`` of the angle has the rate ``2 e cos 2(a − a_E) ȧ`` (the marker
+#: offset's, of period 2π, half that): twice the angle's sd times ``|ȧ|``.
+RATE_PER_MISFIT = 2.0
+#: Fewest rest rows (and rows of a segment) that give an estimate.
+MIN_ROWS = 5
+
+
+@dataclass(frozen=True)
+class SystematicAngles:
+    """Per angle (rad): ``rest_offset`` (median at rest less the scene's start angle; NaN
+    without rest rows), ``rest_offset_sd`` (that median's sampling sd), ``length_misfit``
+    (sd of the segment's slow relative length error; NaN without points) and ``sd``, the
+    systematic sd added to the angle."""
+
+    rest_offset: dict[str, float] = field(default_factory=dict)
+    rest_offset_sd: dict[str, float] = field(default_factory=dict)
+    length_misfit: dict[str, float] = field(default_factory=dict)
+    sd: dict[str, float] = field(default_factory=dict)
+
+
+def start_angles(scene: Scene) -> dict[str, float]:
+    """The scene's start pose (rad): the angles the engine rests in before the trigger."""
+    return {"theta": scene.start.theta, "psi": scene.start.psi, "phi": scene.start.phi}
+
+
+def rest_pose_offsets(t: np.ndarray, angles: dict[str, np.ndarray], trigger: float | None,
+                      scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
+    """Each angle's offset (rad) at rest from the scene's start pose, and the sd (rad) of
+    that median: ``1.2533 · s / √n`` with ``s`` the angle's robust sd (1.4826 MAD) over
+    the ``n`` rows before ``trigger`` (s). NaN for an angle with fewer than ``MIN_ROWS``
+    rest rows, or without a trigger."""
+    start = start_angles(scene)
+    offset: dict[str, float] = {}
+    offset_sd: dict[str, float] = {}
+    for name in ANGLES:
+        z = np.asarray(angles[name], float)
+        rest = z[(t < trigger) & np.isfinite(z)] if trigger is not None else z[:0]
+        if rest.size < MIN_ROWS:
+            offset[name], offset_sd[name] = float("nan"), float("nan")
+            continue
+        med = float(np.median(rest))
+        # the start angle on the branch of the log's value (angles are unwrapped)
+        a0 = start[name] + 2 * np.pi * np.round((med - start[name]) / (2 * np.pi))
+        offset[name] = med - a0
+        s = 1.4826 * float(np.median(np.abs(rest - med)))
+        offset_sd[name] = 1.2533 * s / np.sqrt(rest.size)
+    return offset, offset_sd
+
+
+def segment_length_misfit(points: pd.DataFrame, rows: dict[str, np.ndarray]
+                          ) -> dict[str, float]:
+    """Per angle: the sd over ``rows[angle]`` (bool, one per row) of its segment's
+    relative length less its median, running-median filtered over ``MEDIAN_FRAMES``
+    frames (rad: the sd of the angle's varying systematic error; see the module doc).
+    NaN where a segment's point is missing or fewer than ``MIN_ROWS`` rows have both."""
+    out: dict[str, float] = {}
+    for name, (p, q) in SEGMENTS.items():
+        cols = [p + "_x", p + "_y", q + "_x", q + "_y"]
+        if any(c not in points for c in cols):
+            out[name] = float("nan")
+            continue
+        length = np.hypot(points[q + "_x"].to_numpy(float) - points[p + "_x"].to_numpy(float),
+                          points[q + "_y"].to_numpy(float) - points[p + "_y"].to_numpy(float))
+        length = np.where(rows[name], length, np.nan)
+        if np.sum(np.isfinite(length)) < MIN_ROWS:
+            out[name] = float("nan")
+            continue
+        rel = pd.Series(length / np.nanmedian(length) - 1.0)
+        slow = rel.rolling(MEDIAN_FRAMES, center=True, min_periods=3).median().to_numpy()
+        out[name] = float(np.nanstd(slow))
+    return out
+
+
+def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
+                      release: float | None, lengths: bool = True) -> SystematicAngles:
+    """The systematic sd of each angle of ``log`` (``t`` s; θ, ψ, φ rad; the points of a
+    point log in its ``read_log`` info) from its rest pose before ``trigger`` and, for a
+    point log with ``lengths``, its segments' lengths (the sling's up to ``release``; s,
+    log time). ``lengths=False`` for a log whose angles come from a calibrated image
+    map: the file's raw points then no longer measure the angles' error."""
+    t = log["t"].to_numpy(float)
+    angles = {a: log[a].to_numpy(float) for a in ANGLES}
+    offset, offset_sd = rest_pose_offsets(t, angles, trigger, scene)
+    info = read_log_info(log)
+    misfit = {a: float("nan") for a in ANGLES}
+    if lengths and info is not None and info.points is not None:
+        points = pd.DataFrame(dict(info.points))
+        if len(points) == len(log):
+            held = t < release if release is not None else np.ones(t.size, bool)
+            misfit = segment_length_misfit(points, {"theta": np.ones(t.size, bool),
+                                                    "psi": np.ones(t.size, bool),
+                                                    "phi": held})
+    sd = {}
+    for a in ANGLES:
+        bias2 = max(offset[a] ** 2 - offset_sd[a] ** 2, 0.0) if np.isfinite(offset[a]) else 0.0
+        m2 = misfit[a] ** 2 if np.isfinite(misfit[a]) else 0.0
+        sd[a] = float(np.sqrt(bias2 + m2))
+    return SystematicAngles(offset, offset_sd, misfit, sd)
+
+
+def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.DataFrame:
+    """A copy of the smoothed log ``est`` (:func:`~.smoothing.smooth.smooth`'s output)
+    whose angles carry the systematic sd ``found.sd`` too: added in quadrature to
+    ``X_sd`` and to the angle's variance in ``attrs["cov"]`` on every row; the rates and
+    accelerations unchanged. ``attrs["systematic_angle_sd"]`` holds ``found.sd``."""
+    n = len(est)
+    out = widened_by_calibration(est, {a: np.full(n, s) for a, s in found.sd.items()})
+    cov = dict(out.attrs["cov"])
+    for a, m in found.length_misfit.items():
+        if a not in cov or not m > 0:
+            continue
+        rate_sd = RATE_PER_MISFIT * m * np.abs(est[a + "_d"].to_numpy(float))
+        c = np.array(cov[a], dtype=float, copy=True)
+        c[:, 1, 1] += np.nan_to_num(rate_sd) ** 2
+        cov[a] = c
+        out[a + "_d_sd"] = np.sqrt(est[a + "_d_sd"].to_numpy(float) ** 2 + rate_sd**2)
+    out.attrs["cov"] = cov
+    out.attrs["systematic_angle_sd"] = dict(found.sd)
+    return out
