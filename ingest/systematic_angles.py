@@ -39,13 +39,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from scipy.ndimage import uniform_filter1d
+from scipy.signal import savgol_coeffs, savgol_filter
 
 from trebuchet.ingest.calibrated_angles import widened_by_calibration
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.model.scene import Scene
 
 __all__ = ["SystematicAngles", "rest_pose_offsets", "segment_length_misfit",
-           "systematic_angles", "with_systematic_angles", "SEGMENTS", "MEDIAN_FRAMES"]
+           "systematic_angles", "with_systematic_angles", "misfit_rate_sd",
+           "relative_length_misfit", "SEGMENTS", "MEDIAN_FRAMES", "RATE_FRAMES"]
 
 ANGLES = ("theta", "psi", "phi")
 #: The points whose distance is the constant length of each angle's segment.
@@ -54,10 +57,9 @@ SEGMENTS: dict[str, tuple[str, str]] = {"theta": ("pivot", "spigot"),
                                         "phi": ("spigot", "projectile")}
 #: Frames of the running median that keeps the slow part of a segment's length misfit.
 MEDIAN_FRAMES = 9
-#: sd of the rate error per unit of the length misfit and of the angle's rate: an error
-#: ``e sin 2(a − a_E)`` of the angle has the rate ``2 e cos 2(a − a_E) ȧ`` (the marker
-#: offset's, of period 2π, half that): twice the angle's sd times ``|ȧ|``.
-RATE_PER_MISFIT = 2.0
+#: Frames of the Savitzky–Golay filter (quadratic) that differentiates a length misfit,
+#: and of the running mean of its square.
+RATE_FRAMES = 9
 #: Fewest rest rows (and rows of a segment) that give an estimate.
 MIN_ROWS = 5
 
@@ -66,13 +68,15 @@ MIN_ROWS = 5
 class SystematicAngles:
     """Per angle (rad): ``rest_offset`` (median at rest less the scene's start angle; NaN
     without rest rows), ``rest_offset_sd`` (that median's sampling sd), ``length_misfit``
-    (sd of the segment's slow relative length error; NaN without points) and ``sd``, the
-    systematic sd added to the angle."""
+    (sd of the segment's slow relative length error; NaN without points), ``sd``, the
+    systematic sd added to the angle, and ``rate_sd`` (rad/s, one per row of the log),
+    that added to its rate (:func:`misfit_rate_sd`)."""
 
     rest_offset: dict[str, float] = field(default_factory=dict)
     rest_offset_sd: dict[str, float] = field(default_factory=dict)
     length_misfit: dict[str, float] = field(default_factory=dict)
     sd: dict[str, float] = field(default_factory=dict)
+    rate_sd: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
 
 def start_angles(scene: Scene) -> dict[str, float]:
@@ -104,28 +108,64 @@ def rest_pose_offsets(t: np.ndarray, angles: dict[str, np.ndarray], trigger: flo
     return offset, offset_sd
 
 
-def segment_length_misfit(points: pd.DataFrame, rows: dict[str, np.ndarray]
-                          ) -> dict[str, float]:
-    """Per angle: the sd over ``rows[angle]`` (bool, one per row) of its segment's
-    relative length less its median, running-median filtered over ``MEDIAN_FRAMES``
-    frames (rad: the sd of the angle's varying systematic error; see the module doc).
-    NaN where a segment's point is missing or fewer than ``MIN_ROWS`` rows have both."""
-    out: dict[str, float] = {}
+def relative_length_misfit(points: pd.DataFrame, rows: dict[str, np.ndarray]
+                           ) -> dict[str, np.ndarray]:
+    """Per angle (one per row): its segment's length over ``rows[angle]`` (bool) relative
+    to its median, less 1 (NaN elsewhere, and for every row where a point is missing or
+    fewer than ``MIN_ROWS`` rows have both points)."""
+    out: dict[str, np.ndarray] = {}
+    n = len(points)
     for name, (p, q) in SEGMENTS.items():
         cols = [p + "_x", p + "_y", q + "_x", q + "_y"]
         if any(c not in points for c in cols):
-            out[name] = float("nan")
+            out[name] = np.full(n, np.nan)
             continue
         length = np.hypot(points[q + "_x"].to_numpy(float) - points[p + "_x"].to_numpy(float),
                           points[q + "_y"].to_numpy(float) - points[p + "_y"].to_numpy(float))
         length = np.where(rows[name], length, np.nan)
         if np.sum(np.isfinite(length)) < MIN_ROWS:
-            out[name] = float("nan")
+            out[name] = np.full(n, np.nan)
             continue
-        rel = pd.Series(length / np.nanmedian(length) - 1.0)
-        slow = rel.rolling(MEDIAN_FRAMES, center=True, min_periods=3).median().to_numpy()
-        out[name] = float(np.nanstd(slow))
+        out[name] = length / np.nanmedian(length) - 1.0
     return out
+
+
+def segment_length_misfit(rel: np.ndarray) -> float:
+    """The sd (rad) of the slow part of a relative length misfit ``rel`` (one per row,
+    NaN = not seen): running-median filtered over ``MEDIAN_FRAMES`` frames against the
+    tracking's white noise; the sd of the angle's varying systematic error (the module
+    doc). NaN with fewer than ``MIN_ROWS`` values."""
+    if np.sum(np.isfinite(rel)) < MIN_ROWS:
+        return float("nan")
+    slow = pd.Series(rel).rolling(MEDIAN_FRAMES, center=True, min_periods=3).median()
+    return float(np.nanstd(slow.to_numpy()))
+
+
+def misfit_rate_sd(t: np.ndarray, rel: np.ndarray) -> np.ndarray:
+    """The rate (rad/s, one per row) of an angle's varying systematic error, from its
+    segment's relative length misfit ``rel`` (NaN where the segment is not seen) on the
+    rows' times ``t`` (s): the misfit's time derivative (a quadratic Savitzky–Golay filter
+    of ``RATE_FRAMES`` frames through the gaps, linearly filled), its square averaged over
+    ``RATE_FRAMES`` frames less what the tracking's white noise puts into it (the filter's
+    noise gain times the misfit's white variance, half the robust variance of its frame
+    differences), the root of that. The angle's error moves as its segment's length does
+    (the module doc), whether from the camera (``2 e ȧ``) or a marker dragged off its point
+    for a few frames by something passing in front of it. 0 outside the segment's rows."""
+    ok = np.isfinite(rel)
+    out = np.zeros(rel.size)
+    if ok.sum() < max(RATE_FRAMES, MIN_ROWS) or t.size < RATE_FRAMES:
+        return out
+    idx = np.arange(rel.size)
+    filled = np.interp(idx, idx[ok], rel[ok])
+    dt = float(np.median(np.diff(t)))
+    slope = savgol_filter(filled, RATE_FRAMES, 2, deriv=1, delta=dt)
+    gain = float(np.sum(savgol_coeffs(RATE_FRAMES, 2, deriv=1, delta=dt) ** 2))
+    steps = np.diff(rel[ok])
+    white = (1.4826 * float(np.median(np.abs(steps - np.median(steps))))) ** 2 / 2.0
+    local = uniform_filter1d(slope**2, RATE_FRAMES, mode="nearest") - gain * white
+    inside = np.zeros(rel.size, bool)
+    inside[idx[ok][0]:idx[ok][-1] + 1] = True
+    return np.where(inside, np.sqrt(np.clip(local, 0.0, None)), 0.0)
 
 
 def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
@@ -140,19 +180,21 @@ def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
     offset, offset_sd = rest_pose_offsets(t, angles, trigger, scene)
     info = read_log_info(log)
     misfit = {a: float("nan") for a in ANGLES}
+    rate_sd = {a: np.zeros(t.size) for a in ANGLES}
     if lengths and info is not None and info.points is not None:
         points = pd.DataFrame(dict(info.points))
         if len(points) == len(log):
             held = t < release if release is not None else np.ones(t.size, bool)
-            misfit = segment_length_misfit(points, {"theta": np.ones(t.size, bool),
-                                                    "psi": np.ones(t.size, bool),
-                                                    "phi": held})
+            every = np.ones(t.size, bool)
+            rel = relative_length_misfit(points, {"theta": every, "psi": every, "phi": held})
+            misfit = {a: segment_length_misfit(r) for a, r in rel.items()}
+            rate_sd = {a: misfit_rate_sd(t, r) for a, r in rel.items()}
     sd = {}
     for a in ANGLES:
         bias2 = max(offset[a] ** 2 - offset_sd[a] ** 2, 0.0) if np.isfinite(offset[a]) else 0.0
         m2 = misfit[a] ** 2 if np.isfinite(misfit[a]) else 0.0
         sd[a] = float(np.sqrt(bias2 + m2))
-    return SystematicAngles(offset, offset_sd, misfit, sd)
+    return SystematicAngles(offset, offset_sd, misfit, sd, rate_sd)
 
 
 def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.DataFrame:
@@ -163,12 +205,11 @@ def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.Dat
     n = len(est)
     out = widened_by_calibration(est, {a: np.full(n, s) for a, s in found.sd.items()})
     cov = dict(out.attrs["cov"])
-    for a, m in found.length_misfit.items():
-        if a not in cov or not m > 0:
+    for a, rate_sd in found.rate_sd.items():
+        if a not in cov or not np.any(rate_sd > 0):
             continue
-        rate_sd = RATE_PER_MISFIT * m * np.abs(est[a + "_d"].to_numpy(float))
         c = np.array(cov[a], dtype=float, copy=True)
-        c[:, 1, 1] += np.nan_to_num(rate_sd) ** 2
+        c[:, 1, 1] += rate_sd**2
         cov[a] = c
         out[a + "_d_sd"] = np.sqrt(est[a + "_d_sd"].to_numpy(float) ** 2 + rate_sd**2)
     out.attrs["cov"] = cov
