@@ -59,7 +59,7 @@ SEGMENTS: dict[str, tuple[str, str]] = {"theta": ("pivot", "spigot"),
 MEDIAN_FRAMES = 9
 #: Frames of the Savitzky–Golay filter (quadratic) that differentiates a length misfit,
 #: and of the running mean of its square.
-RATE_FRAMES = 9
+RATE_FRAMES = 15
 #: Fewest rest rows (and rows of a segment) that give an estimate.
 MIN_ROWS = 5
 
@@ -130,15 +130,28 @@ def relative_length_misfit(points: pd.DataFrame, rows: dict[str, np.ndarray]
     return out
 
 
+def white_variance(rel: np.ndarray) -> float:
+    """The white (frame-to-frame independent) variance of a series ``rel`` (NaN = not
+    seen): half the robust variance (1.4826 MAD, squared) of its differences between
+    consecutive present values; 0 with fewer than ``MIN_ROWS`` values."""
+    ok = np.isfinite(rel)
+    if ok.sum() < MIN_ROWS:
+        return 0.0
+    steps = np.diff(rel[ok])
+    return (1.4826 * float(np.median(np.abs(steps - np.median(steps))))) ** 2 / 2.0
+
+
 def segment_length_misfit(rel: np.ndarray) -> float:
     """The sd (rad) of the slow part of a relative length misfit ``rel`` (one per row,
-    NaN = not seen): running-median filtered over ``MEDIAN_FRAMES`` frames against the
-    tracking's white noise; the sd of the angle's varying systematic error (the module
-    doc). NaN with fewer than ``MIN_ROWS`` values."""
+    NaN = not seen): running-median filtered over ``MEDIAN_FRAMES`` frames, its variance
+    less what the tracking's white noise leaves in such a median (``π / (2 n)`` of the
+    white variance, :func:`white_variance`, for ``n`` frames); the sd of the angle's
+    varying systematic error (the module doc). NaN with fewer than ``MIN_ROWS`` values."""
     if np.sum(np.isfinite(rel)) < MIN_ROWS:
         return float("nan")
     slow = pd.Series(rel).rolling(MEDIAN_FRAMES, center=True, min_periods=3).median()
-    return float(np.nanstd(slow.to_numpy()))
+    var = float(np.nanvar(slow.to_numpy())) - np.pi / (2 * MEDIAN_FRAMES) * white_variance(rel)
+    return float(np.sqrt(max(var, 0.0)))
 
 
 def misfit_rate_sd(t: np.ndarray, rel: np.ndarray) -> np.ndarray:
@@ -147,8 +160,8 @@ def misfit_rate_sd(t: np.ndarray, rel: np.ndarray) -> np.ndarray:
     rows' times ``t`` (s): the misfit's time derivative (a quadratic Savitzky–Golay filter
     of ``RATE_FRAMES`` frames through the gaps, linearly filled), its square averaged over
     ``RATE_FRAMES`` frames less what the tracking's white noise puts into it (the filter's
-    noise gain times the misfit's white variance, half the robust variance of its frame
-    differences), the root of that. The angle's error moves as its segment's length does
+    noise gain times the misfit's white variance, :func:`white_variance`), the root of
+    that. The angle's error moves as its segment's length does
     (the module doc), whether from the camera (``2 e ȧ``) or a marker dragged off its point
     for a few frames by something passing in front of it. 0 outside the segment's rows."""
     ok = np.isfinite(rel)
@@ -160,9 +173,7 @@ def misfit_rate_sd(t: np.ndarray, rel: np.ndarray) -> np.ndarray:
     dt = float(np.median(np.diff(t)))
     slope = savgol_filter(filled, RATE_FRAMES, 2, deriv=1, delta=dt)
     gain = float(np.sum(savgol_coeffs(RATE_FRAMES, 2, deriv=1, delta=dt) ** 2))
-    steps = np.diff(rel[ok])
-    white = (1.4826 * float(np.median(np.abs(steps - np.median(steps))))) ** 2 / 2.0
-    local = uniform_filter1d(slope**2, RATE_FRAMES, mode="nearest") - gain * white
+    local = uniform_filter1d(slope**2, RATE_FRAMES, mode="nearest") - gain * white_variance(rel)
     inside = np.zeros(rel.size, bool)
     inside[idx[ok][0]:idx[ok][-1] + 1] = True
     return np.where(inside, np.sqrt(np.clip(local, 0.0, None)), 0.0)
