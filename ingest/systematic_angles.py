@@ -77,6 +77,7 @@ class SystematicAngles:
     length_misfit: dict[str, float] = field(default_factory=dict)
     sd: dict[str, float] = field(default_factory=dict)
     rate_sd: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    acc_sd: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
 
 def start_angles(scene: Scene) -> dict[str, float]:
@@ -154,11 +155,12 @@ def segment_length_misfit(rel: np.ndarray) -> float:
     return float(np.sqrt(max(var, 0.0)))
 
 
-def misfit_rate_sd(t: np.ndarray, rel: np.ndarray) -> np.ndarray:
-    """The rate (rad/s, one per row) of an angle's varying systematic error, from its
-    segment's relative length misfit ``rel`` (NaN where the segment is not seen) on the
-    rows' times ``t`` (s): the misfit's time derivative (a quadratic Savitzky–Golay filter
-    of ``RATE_FRAMES`` frames through the gaps, linearly filled), its square averaged over
+def misfit_rate_sd(t: np.ndarray, rel: np.ndarray, order: int = 1) -> np.ndarray:
+    """The rate (rad/s, one per row; ``order`` 2: the acceleration, rad/s²) of an angle's
+    varying systematic error, from its segment's relative length misfit ``rel`` (NaN
+    where the segment is not seen) on the rows' times ``t`` (s): the misfit's time
+    derivative of that order (a quadratic Savitzky–Golay filter of ``RATE_FRAMES`` frames
+    through the gaps, linearly filled), its square averaged over
     ``RATE_FRAMES`` frames less what the tracking's white noise puts into it (the filter's
     noise gain times the misfit's white variance, :func:`white_variance`), the root of
     that. The angle's error moves as its segment's length does
@@ -171,8 +173,8 @@ def misfit_rate_sd(t: np.ndarray, rel: np.ndarray) -> np.ndarray:
     idx = np.arange(rel.size)
     filled = np.interp(idx, idx[ok], rel[ok])
     dt = float(np.median(np.diff(t)))
-    slope = savgol_filter(filled, RATE_FRAMES, 2, deriv=1, delta=dt)
-    gain = float(np.sum(savgol_coeffs(RATE_FRAMES, 2, deriv=1, delta=dt) ** 2))
+    slope = savgol_filter(filled, RATE_FRAMES, 2, deriv=order, delta=dt)
+    gain = float(np.sum(savgol_coeffs(RATE_FRAMES, 2, deriv=order, delta=dt) ** 2))
     local = uniform_filter1d(slope**2, RATE_FRAMES, mode="nearest") - gain * white_variance(rel)
     inside = np.zeros(rel.size, bool)
     inside[idx[ok][0]:idx[ok][-1] + 1] = True
@@ -192,6 +194,7 @@ def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
     info = read_log_info(log)
     misfit = {a: float("nan") for a in ANGLES}
     rate_sd = {a: np.zeros(t.size) for a in ANGLES}
+    acc_sd = {a: np.zeros(t.size) for a in ANGLES}
     if lengths and info is not None and info.points is not None:
         points = pd.DataFrame(dict(info.points))
         if len(points) == len(log):
@@ -200,12 +203,13 @@ def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
             rel = relative_length_misfit(points, {"theta": every, "psi": every, "phi": held})
             misfit = {a: segment_length_misfit(r) for a, r in rel.items()}
             rate_sd = {a: misfit_rate_sd(t, r) for a, r in rel.items()}
+            acc_sd = {a: misfit_rate_sd(t, r, 2) for a, r in rel.items()}
     sd = {}
     for a in ANGLES:
         bias2 = max(offset[a] ** 2 - offset_sd[a] ** 2, 0.0) if np.isfinite(offset[a]) else 0.0
         m2 = misfit[a] ** 2 if np.isfinite(misfit[a]) else 0.0
         sd[a] = float(np.sqrt(bias2 + m2))
-    return SystematicAngles(offset, offset_sd, misfit, sd, rate_sd)
+    return SystematicAngles(offset, offset_sd, misfit, sd, rate_sd, acc_sd)
 
 
 def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.DataFrame:
@@ -216,13 +220,15 @@ def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.Dat
     n = len(est)
     out = widened_by_calibration(est, {a: np.full(n, s) for a, s in found.sd.items()})
     cov = dict(out.attrs["cov"])
-    for a, rate_sd in found.rate_sd.items():
-        if a not in cov or not np.any(rate_sd > 0):
-            continue
-        c = np.array(cov[a], dtype=float, copy=True)
-        c[:, 1, 1] += rate_sd**2
-        cov[a] = c
-        out[a + "_d_sd"] = np.sqrt(est[a + "_d_sd"].to_numpy(float) ** 2 + rate_sd**2)
+    for j, (suffix, added) in enumerate((("_d", found.rate_sd), ("_dd", found.acc_sd)), 1):
+        for a, extra in added.items():
+            if a not in cov or not np.any(extra > 0):
+                continue
+            c = np.array(cov[a], dtype=float, copy=True)
+            c[:, j, j] += extra**2
+            cov[a] = c
+            out[a + suffix + "_sd"] = np.sqrt(est[a + suffix + "_sd"].to_numpy(float) ** 2
+                                              + extra**2)
     out.attrs["cov"] = cov
     out.attrs["systematic_angle_sd"] = dict(found.sd)
     return out
