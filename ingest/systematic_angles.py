@@ -77,7 +77,6 @@ class SystematicAngles:
     length_misfit: dict[str, float] = field(default_factory=dict)
     sd: dict[str, float] = field(default_factory=dict)
     rate_sd: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
-    acc_sd: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
 
 def start_angles(scene: Scene) -> dict[str, float]:
@@ -158,14 +157,18 @@ def segment_length_misfit(rel: np.ndarray) -> float:
 def misfit_rate_sd(t: np.ndarray, rel: np.ndarray, order: int = 1) -> np.ndarray:
     """The rate (rad/s, one per row; ``order`` 2: the acceleration, rad/s²) of an angle's
     varying systematic error, from its segment's relative length misfit ``rel`` (NaN
-    where the segment is not seen) on the rows' times ``t`` (s): the misfit's time
-    derivative of that order (a quadratic Savitzky–Golay filter of ``RATE_FRAMES`` frames
-    through the gaps, linearly filled), its square averaged over
-    ``RATE_FRAMES`` frames less what the tracking's white noise puts into it (the filter's
-    noise gain times the misfit's white variance, :func:`white_variance`), the root of
-    that. The angle's error moves as its segment's length does
-    (the module doc), whether from the camera (``2 e ȧ``) or a marker dragged off its point
-    for a few frames by something passing in front of it. 0 outside the segment's rows."""
+    where the segment is not seen) on the rows' times ``t`` (s). The angle's error moves
+    as its segment's length does (the module doc), whether from the camera (``2 e ȧ``)
+    or a marker dragged off its point for a few frames by something passing in front of
+    it. The misfit's derivative of that order (a quadratic Savitzky–Golay filter of
+    ``RATE_FRAMES`` frames through the gaps, linearly filled) is squared and averaged
+    over ``RATE_FRAMES`` frames; the tracking's white noise (variance ``w``,
+    :func:`white_variance`) puts ``w Σ c²`` into that mean (``c`` the filter's
+    coefficients) and makes it scatter by ``√(2 Σ_k (W − |k|) γ_k²) / W`` (``γ_k =
+    w Σ_i c_i c_{i+k}`` the filtered noise's autocovariance, ``W`` frames). What exceeds
+    the noise's share by more than twice that scatter counts (its root is returned);
+    elsewhere 0: a clipped estimate of a zero would otherwise leave half the noise's
+    scatter as a bias. 0 outside the segment's rows."""
     ok = np.isfinite(rel)
     out = np.zeros(rel.size)
     if ok.sum() < max(RATE_FRAMES, MIN_ROWS) or t.size < RATE_FRAMES:
@@ -174,11 +177,18 @@ def misfit_rate_sd(t: np.ndarray, rel: np.ndarray, order: int = 1) -> np.ndarray
     filled = np.interp(idx, idx[ok], rel[ok])
     dt = float(np.median(np.diff(t)))
     slope = savgol_filter(filled, RATE_FRAMES, 2, deriv=order, delta=dt)
-    gain = float(np.sum(savgol_coeffs(RATE_FRAMES, 2, deriv=order, delta=dt) ** 2))
-    local = uniform_filter1d(slope**2, RATE_FRAMES, mode="nearest") - gain * white_variance(rel)
+    c = savgol_coeffs(RATE_FRAMES, 2, deriv=order, delta=dt)
+    w = white_variance(rel)
+    gamma = w * np.correlate(c, c, mode="full")  # lags −(F−1) … F−1
+    lags = np.arange(-(c.size - 1), c.size)
+    near = np.abs(lags) < RATE_FRAMES
+    scatter = np.sqrt(2.0 * np.sum((RATE_FRAMES - np.abs(lags[near])) * gamma[near] ** 2)) \
+        / RATE_FRAMES
+    excess = uniform_filter1d(slope**2, RATE_FRAMES, mode="nearest") - w * float(np.sum(c * c))
     inside = np.zeros(rel.size, bool)
     inside[idx[ok][0]:idx[ok][-1] + 1] = True
-    return np.where(inside, np.sqrt(np.clip(local, 0.0, None)), 0.0)
+    seen = inside & (excess > 2.0 * scatter)
+    return np.where(seen, np.sqrt(np.clip(excess, 0.0, None)), 0.0)
 
 
 def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
@@ -194,7 +204,6 @@ def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
     info = read_log_info(log)
     misfit = {a: float("nan") for a in ANGLES}
     rate_sd = {a: np.zeros(t.size) for a in ANGLES}
-    acc_sd = {a: np.zeros(t.size) for a in ANGLES}
     if lengths and info is not None and info.points is not None:
         points = pd.DataFrame(dict(info.points))
         if len(points) == len(log):
@@ -203,13 +212,12 @@ def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
             rel = relative_length_misfit(points, {"theta": every, "psi": every, "phi": held})
             misfit = {a: segment_length_misfit(r) for a, r in rel.items()}
             rate_sd = {a: misfit_rate_sd(t, r) for a, r in rel.items()}
-            acc_sd = {a: misfit_rate_sd(t, r, 2) for a, r in rel.items()}
     sd = {}
     for a in ANGLES:
         bias2 = max(offset[a] ** 2 - offset_sd[a] ** 2, 0.0) if np.isfinite(offset[a]) else 0.0
         m2 = misfit[a] ** 2 if np.isfinite(misfit[a]) else 0.0
         sd[a] = float(np.sqrt(bias2 + m2))
-    return SystematicAngles(offset, offset_sd, misfit, sd, rate_sd, acc_sd)
+    return SystematicAngles(offset, offset_sd, misfit, sd, rate_sd)
 
 
 def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.DataFrame:
@@ -220,15 +228,13 @@ def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.Dat
     n = len(est)
     out = widened_by_calibration(est, {a: np.full(n, s) for a, s in found.sd.items()})
     cov = dict(out.attrs["cov"])
-    for j, (suffix, added) in enumerate((("_d", found.rate_sd), ("_dd", found.acc_sd)), 1):
-        for a, extra in added.items():
-            if a not in cov or not np.any(extra > 0):
-                continue
-            c = np.array(cov[a], dtype=float, copy=True)
-            c[:, j, j] += extra**2
-            cov[a] = c
-            out[a + suffix + "_sd"] = np.sqrt(est[a + suffix + "_sd"].to_numpy(float) ** 2
-                                              + extra**2)
+    for a, rate_sd in found.rate_sd.items():
+        if a not in cov or not np.any(rate_sd > 0):
+            continue
+        c = np.array(cov[a], dtype=float, copy=True)
+        c[:, 1, 1] += rate_sd**2
+        cov[a] = c
+        out[a + "_d_sd"] = np.sqrt(est[a + "_d_sd"].to_numpy(float) ** 2 + rate_sd**2)
     out.attrs["cov"] = cov
     out.attrs["systematic_angle_sd"] = dict(found.sd)
     return out
