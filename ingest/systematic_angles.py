@@ -48,6 +48,7 @@ from trebuchet.model.scene import Scene
 
 __all__ = ["SystematicAngles", "rest_pose_offsets", "segment_length_misfit",
            "systematic_angles", "with_systematic_angles", "misfit_rate_sd",
+           "misfit_acceleration_sd",
            "relative_length_misfit", "SEGMENTS", "MEDIAN_FRAMES", "RATE_FRAMES"]
 
 ANGLES = ("theta", "psi", "phi")
@@ -77,6 +78,7 @@ class SystematicAngles:
     length_misfit: dict[str, float] = field(default_factory=dict)
     sd: dict[str, float] = field(default_factory=dict)
     rate_sd: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    acc_sd: dict[str, float] = field(default_factory=dict)
 
 
 def start_angles(scene: Scene) -> dict[str, float]:
@@ -191,6 +193,41 @@ def misfit_rate_sd(t: np.ndarray, rel: np.ndarray, order: int = 1) -> np.ndarray
     return np.where(seen, np.sqrt(np.clip(excess, 0.0, None)), 0.0)
 
 
+def misfit_acceleration_sd(t: np.ndarray, rel: np.ndarray) -> float:
+    """The acceleration (rad/s²) of an angle's error that the tracking's correlated noise
+    makes, one sd over the whole track, from its segment's relative length misfit
+    ``rel`` (NaN where not seen) on the rows' times ``t`` (s). Template matching errs
+    alike on neighbouring frames (on the video bench the error's lag-1 autocorrelation is
+    0.5–0.9 after a 31-frame high-pass, against 0 for white noise); the smoother follows
+    such an error as motion, so its residuals do not show it (their lag-1
+    autocorrelation is −0.3–0.2) and its sd of the accelerations counts only the white
+    part. The misfit shows it: the mean square of its second derivative (the quadratic
+    Savitzky–Golay filter of ``RATE_FRAMES`` frames) over the track exceeds what white
+    noise of the misfit's white variance ``w`` (:func:`white_variance`) puts there,
+    ``w Σ c²``. The excess counts only beyond twice its sd under white noise (the mean's
+    scatter, as in :func:`misfit_rate_sd`, and ``w``'s own: a robust variance from ``m``
+    differences has a relative sd of about ``2.3 / √m``); 0 otherwise. One value for
+    the whole track: a frame-by-frame estimate is dominated by the noise it is to exceed."""
+    ok = np.isfinite(rel)
+    if ok.sum() < 3 * RATE_FRAMES or t.size < RATE_FRAMES:
+        return 0.0
+    idx = np.arange(rel.size)
+    inside = slice(idx[ok][0], idx[ok][-1] + 1)
+    filled = np.interp(idx, idx[ok], rel[ok])[inside]
+    dt = float(np.median(np.diff(t)))
+    curvature = savgol_filter(filled, RATE_FRAMES, 2, deriv=2, delta=dt)
+    c = savgol_coeffs(RATE_FRAMES, 2, deriv=2, delta=dt)
+    w = white_variance(rel)
+    n = filled.size
+    gamma = w * np.correlate(c, c, mode="full")
+    lags = np.abs(np.arange(-(c.size - 1), c.size))
+    scatter = np.sqrt(2.0 * np.sum((n - lags) * gamma**2)) / n
+    white = w * float(np.sum(c * c))
+    excess = float(np.mean(curvature**2)) - white
+    doubt = np.hypot(scatter, white * 2.3 / np.sqrt(ok.sum() - 1))
+    return float(np.sqrt(excess)) if excess > 2.0 * doubt else 0.0
+
+
 def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
                       release: float | None, lengths: bool = True) -> SystematicAngles:
     """The systematic sd of each angle of ``log`` (``t`` s; θ, ψ, φ rad; the points of a
@@ -204,6 +241,7 @@ def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
     info = read_log_info(log)
     misfit = {a: float("nan") for a in ANGLES}
     rate_sd = {a: np.zeros(t.size) for a in ANGLES}
+    acc_sd = {a: 0.0 for a in ANGLES}
     if lengths and info is not None and info.points is not None:
         points = pd.DataFrame(dict(info.points))
         if len(points) == len(log):
@@ -212,12 +250,13 @@ def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
             rel = relative_length_misfit(points, {"theta": every, "psi": every, "phi": held})
             misfit = {a: segment_length_misfit(r) for a, r in rel.items()}
             rate_sd = {a: misfit_rate_sd(t, r) for a, r in rel.items()}
+            acc_sd = {a: misfit_acceleration_sd(t, r) for a, r in rel.items()}
     sd = {}
     for a in ANGLES:
         bias2 = max(offset[a] ** 2 - offset_sd[a] ** 2, 0.0) if np.isfinite(offset[a]) else 0.0
         m2 = misfit[a] ** 2 if np.isfinite(misfit[a]) else 0.0
         sd[a] = float(np.sqrt(bias2 + m2))
-    return SystematicAngles(offset, offset_sd, misfit, sd, rate_sd)
+    return SystematicAngles(offset, offset_sd, misfit, sd, rate_sd, acc_sd)
 
 
 def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.DataFrame:
@@ -235,6 +274,13 @@ def with_systematic_angles(est: pd.DataFrame, found: SystematicAngles) -> pd.Dat
         c[:, 1, 1] += rate_sd**2
         cov[a] = c
         out[a + "_d_sd"] = np.sqrt(est[a + "_d_sd"].to_numpy(float) ** 2 + rate_sd**2)
+    for a, acc_sd in found.acc_sd.items():
+        if a not in cov or not acc_sd > 0:
+            continue
+        c = np.array(cov[a], dtype=float, copy=True)
+        c[:, 2, 2] += acc_sd**2
+        cov[a] = c
+        out[a + "_dd_sd"] = np.sqrt(est[a + "_dd_sd"].to_numpy(float) ** 2 + acc_sd**2)
     out.attrs["cov"] = cov
     out.attrs["systematic_angle_sd"] = dict(found.sd)
     return out

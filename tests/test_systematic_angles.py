@@ -17,6 +17,7 @@ from trebuchet.ingest.reconstruct import reconstruct
 from trebuchet.ingest.synthetic.filmed_points import film, simulated_plane_track
 from trebuchet.ingest.synthetic.simulated_log import shot_truth
 from trebuchet.ingest.systematic_angles import (
+    misfit_acceleration_sd,
     misfit_rate_sd,
     relative_length_misfit,
     segment_length_misfit,
@@ -131,3 +132,19 @@ def test_bands_hold_the_truth_under_a_tilted_camera(horsdal, tilted_shot, monkey
     assert np.mean([_cover(bare, truth, c) for c in columns]) < 0.75
     for col in columns:
         assert 0.85 <= _cover(res, truth, col) <= 0.995, (col, _cover(res, truth, col))
+
+
+def test_correlated_tracking_noise_shows_in_the_accelerations():
+    """White misfit noise adds no acceleration sd; noise correlated from frame to frame
+    (AR(1), ρ = 0.8, as template matching errs) does, about its own second derivative's
+    excess over the white share."""
+    t = np.arange(360) / FPS
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        white = rng.normal(0.0, 2.8e-3, t.size)
+        assert misfit_acceleration_sd(t, white) == 0.0
+        ar = np.zeros(t.size)
+        kick = rng.normal(0.0, 1.7e-3, t.size)
+        for i in range(1, t.size):
+            ar[i] = 0.8 * ar[i - 1] + kick[i]
+        assert misfit_acceleration_sd(t, ar + 0.3 * white) > 2.0
