@@ -12,7 +12,7 @@ import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError, cli_command
 from trebuchet.ingest.logs.result import read_log_info
-from trebuchet.ingest.reconstruct import FORMS, TROUGH, reconstruct
+from trebuchet.ingest.reconstruct import FORMS, IMAGE_CALIBRATIONS, TROUGH, reconstruct
 from trebuchet.ingest.reconstruction import reconstruction_of
 from trebuchet.output import check_target, write_csv
 
@@ -38,15 +38,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def add_reconstruct_arguments(p: argparse.ArgumentParser) -> None:
     """Every argument of ``forces`` but its output: the log arguments
-    (:func:`add_log_arguments`), ``--form``, ``--trough`` and the event times ``--trigger``,
-    ``--lift-off``, ``--release``. ``compare`` adds exactly these too (docs/interface.md:
-    it takes every option ``forces`` takes, with the same names and meanings); read them
-    back with :func:`reconstruct_options`."""
+    (:func:`add_log_arguments`), ``--form``, ``--trough``, ``--image-calibration`` and
+    the event times ``--trigger``, ``--lift-off``, ``--release``. ``compare`` adds exactly
+    these too (docs/interface.md: it takes every option ``forces`` takes, with the same
+    names and meanings); read them back with :func:`reconstruct_options`."""
     add_log_arguments(p)
     p.add_argument("--form", choices=FORMS, default=None,
                    help="force formulas: projected on the arms (default) or the paper's direct")
     p.add_argument("--trough", choices=TROUGH, default=None,
                    help="phase-I sling angle from the trough constraint (default) or measured")
+    p.add_argument("--image-calibration", choices=IMAGE_CALIBRATIONS, default=None,
+                   help="point logs: the engine calibrates the camera's image itself "
+                        "(engine, default) or the points are taken as seen (none)")
     for event in EVENT_OPTIONS:
         p.add_argument(f"--{event}", metavar="SECONDS",
                        help=f"{event} time in the log's time (s), or 'none'; default: found "
@@ -56,9 +59,10 @@ def add_reconstruct_arguments(p: argparse.ArgumentParser) -> None:
 def reconstruct_options(args: argparse.Namespace) -> dict[str, object]:
     """The keywords of :func:`~trebuchet.ingest.reconstruct.reconstruct` from the arguments
     of :func:`add_reconstruct_arguments`: ``fps``, ``columns``, ``points``, ``events``,
-    ``form``, ``trough``; each checked with an error naming its option."""
+    ``form``, ``trough``, ``image_calibration``; each checked with an error naming its option."""
     return log_options(args) | {"events": _event_args(args), "form": args.form,
-                                "trough": args.trough}
+                                "trough": args.trough,
+                                "image_calibration": args.image_calibration}
 
 
 def add_log_arguments(p: argparse.ArgumentParser) -> None:

@@ -662,6 +662,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                 points: Mapping[str, str] | None = None, *,
                 events: Mapping[str, float | None] | None = None,
                 form: str | None = None, trough: str | None = None,
+                image_calibration: str | None = None,
                 q: float | Mapping[str, float] | None = None,
                 r: float | Mapping[str, float] | None = None,
                 min_likelihood: float = MIN_LIKELIHOOD,
@@ -689,7 +690,9 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         and the given ones be ordered trigger < lift_off < release, else
         ``TrebuchetInputError`` naming the log file and the event.
     form : "projected" (default) or "direct"; trough : "constraint" (default) or
-        "measured" (see the module doc); they override ``options``.
+        "measured" (see the module doc); image_calibration : "engine" (default, point
+        logs: the engine calibrates the image) or "none" (``ReconstructOptions``); they
+        override ``options``.
     q, r : the smoother's process noise and measurement noise sd (rad), per angle or one
         number; default maximum likelihood.
     options : :class:`ReconstructOptions`.
@@ -719,7 +722,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     """
     if options is None:
         options = ReconstructOptions()
-    changes = {k: v for k, v in (("form", form), ("trough", trough)) if v is not None}
+    changes = {k: v for k, v in (("form", form), ("trough", trough),
+                                 ("image_calibration", image_calibration)) if v is not None}
     if changes:
         options = dataclasses.replace(options, **changes)
     scene = as_scene(scene, "reconstruct")

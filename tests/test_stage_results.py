@@ -93,3 +93,18 @@ def test_a_table_from_elsewhere_is_refused_by_name():
         smoothing_of(pd.DataFrame({"t": [0.0]}))
     with pytest.raises(TrebuchetInputError, match="trebuchet.reconstruct"):
         reconstruction_of(pd.DataFrame({"t": [0.0]}))
+
+
+def test_the_command_line_turns_the_self_calibration_off_by_name():
+    import argparse
+
+    from trebuchet.ingest.cli import add_reconstruct_arguments, reconstruct_options
+
+    p = argparse.ArgumentParser()
+    add_reconstruct_arguments(p)
+    args = p.parse_args(["shot.csv", "--scene", "s.toml", "--image-calibration", "none"])
+    assert reconstruct_options(args)["image_calibration"] == "none"
+    assert reconstruct_options(p.parse_args(["shot.csv", "--scene", "s.toml"]))[
+        "image_calibration"] is None
+    with pytest.raises(SystemExit):
+        p.parse_args(["shot.csv", "--scene", "s.toml", "--image-calibration", "auto"])
