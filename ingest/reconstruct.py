@@ -60,6 +60,7 @@ from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.logs.scene_check import scene_check
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
+from trebuchet.ingest.smoothing.counterweight_continuation import with_continued_counterweight
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.smooth import (
     ANGLES,
@@ -770,6 +771,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     if calibrated is not None:
         est = widened_by_calibration(est, calibrated.common_sd)
         est.attrs["notes"] = [*est.attrs.get("notes", []), *calibrated.notes]
+    est = with_continued_counterweight(est, scene, angles_log[ANGLES.index("psi")])
     info = read_log_info(log)
     lines = info.lines if info is not None and info.lines is not None \
         and len(info.lines) == len(est) else None
