@@ -84,3 +84,19 @@ def test_a_counterweight_track_that_lost_its_marker_stays_flagged(shot):
     hit = set().union(*(range(o.first, o.last + 1) for o in found))
     assert set(range(start + 5, cw.shape[0])) <= hit
     assert min(hit) >= start - 2
+
+
+def test_a_counterweight_track_that_finds_its_marker_again_is_kept(shot):
+    """The same slid template, but the tracker jumps back onto the marker 40 frames on and
+    stays there: from there on the track is the counterweight's again."""
+    pos = _tracked(shot, 0.001)
+    cw = pos["counterweight"].copy()
+    moving = np.flatnonzero(shot.t > 0.6)
+    start, back = moving[0], moving[40]
+    cw[start:back] = cw[start] + np.random.default_rng(2).normal(0.0, 0.001, (back - start, 2))
+    xy = {r: (pos[r][:, 0], pos[r][:, 1]) for r in ROLES}
+    xy["counterweight"] = (cw[:, 0], cw[:, 1])
+    found = [o for o in off_engine(xy) if o.point == "counterweight"]
+    hit = set().union(*(range(o.first, o.last + 1) for o in found))
+    assert set(range(start + 10, back - 5)) <= hit  # once the tie has broken
+    assert not hit & set(range(back, cw.shape[0]))

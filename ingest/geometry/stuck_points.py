@@ -189,25 +189,35 @@ OFF_RUN = 5
 #: A run off the engine this long (frames) means the tracker has lost its marker: the
 #: positions that follow on from it without a jump are still the wrong thing's.
 LOST_RUN = 5
+#: ...and it is back on its marker only after a jump followed by this many frames tracked on
+#: the engine.
+REACQUIRED = 10
 
 
 def _lost_on(xy: np.ndarray, off: np.ndarray, dev: np.ndarray, limit: float) -> np.ndarray:
-    """``off`` (n,) grown forward from each run of at least :data:`LOST_RUN` frames over the
+    """``off`` (n,) grown forward from each run of at least :data:`LOST_RUN` frames off (gaps
+    between them do not break a run) over the
     positions ``xy`` (n, 2) that follow on from its last one without a jump back to the
-    engine (a step of at least half the tie's deviation ``dev`` there, and ``limit``): a
+    engine (a step of at least half the tie's deviation ``dev`` there, and ``limit``, then
+    :data:`REACQUIRED` frames tracked and on the engine): a
     template that slid onto an occluder moves on with it, and where the engine swings back
     past it the tie may hold for a while by chance. Gaps are skipped (the step is taken
     across them)."""
     out = off.copy()
     n = xy.shape[0]
-    for first, last in _runs(off):
-        if last - first + 1 < LOST_RUN:
+    missing = ~np.isfinite(xy).all(axis=1)
+    for first, last in _runs(off | missing):  # a run broken only by gaps is one run
+        hit = np.flatnonzero(off[first:last + 1])
+        if hit.size < LOST_RUN:
             continue
+        last = first + int(hit[-1])
         jump = max(0.5 * float(dev[last]), limit)
         prev, k = xy[last], last + 1
         while k < n:
-            if np.isfinite(xy[k]).all():
-                if np.hypot(*(xy[k] - prev)) >= jump:
+            if not missing[k]:
+                back = k + REACQUIRED
+                if (np.hypot(*(xy[k] - prev)) >= jump and back <= n
+                        and not (missing[k:back] | off[k:back]).any()):
                     break
                 out[k] = True
                 prev = xy[k]
