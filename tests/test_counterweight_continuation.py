@@ -48,7 +48,7 @@ def test_a_counterweight_lost_before_the_peak_keeps_the_peak(backyard, fps, peak
     rms = np.sqrt(np.mean((est[shot] - true[shot]) ** 2)) / true[shot].max()
     assert rms < 0.03
     psi_err = np.abs(res["psi"].to_numpy() - truth["psi"].to_numpy())
-    assert any("counterweight's pendulum" in n for n in res.attrs["notes"])
+    assert any("counterweight's pendulum" in n for n in res.attrs["reconstruction"].notes)
     # the continued ψ's sd grows from the tracked one's and holds its drift to 3 sd
     sd = res["psi_sd"].to_numpy()
     cut = peak - int(0.05 * fps)

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
+from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
 from trebuchet.model.dynamics import counterweight_pendulum_psi_dd
 from trebuchet.model.scene import Scene
 
@@ -104,7 +105,7 @@ def continued_counterweight(est: dict[str, np.ndarray], scene: Scene, last: int,
 def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.ndarray
                                  ) -> pd.DataFrame:
     """``est`` (a smoother's output, one row per log row) with ψ, ψ̇, ψ̈, their sd and
-    ``attrs["cov"]["psi"]`` filled after the last row where the log has ψ (``psi_log``,
+    the smoothing's ``cov["psi"]`` filled after the last row where the log has ψ (``psi_log``,
     rad, NaN in gaps), when the smoothed beam goes on at least :data:`MIN_FRAMES_LOST`
     rows longer, by the counterweight's pendulum (module doc), and a note saying so;
     ``est`` itself otherwise (no ψ at all, a counterweight fixed to the beam)."""
@@ -113,11 +114,11 @@ def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.nd
     theta = est["theta"].to_numpy(dtype=float)
     beam = np.flatnonzero(np.isfinite(theta))
     if (scene.engine.fixed_counterweight or have.size == 0 or beam.size == 0
-            or len(psi_log) != len(est) or beam[-1] - have[-1] < MIN_FRAMES_LOST
-            or "cov" not in est.attrs):
+            or len(psi_log) != len(est) or beam[-1] - have[-1] < MIN_FRAMES_LOST):
         return est
     last = int(have[-1])
-    cov = dict(est.attrs["cov"])
+    fit = smoothing_of(est)
+    cov = dict(fit.cov)
     cont = continued_counterweight(
         {c: est[c].to_numpy(dtype=float) for c in ("t", "theta", "theta_d", "theta_dd",
                                                    "theta_dd_sd", "psi", "psi_d")},
@@ -127,20 +128,17 @@ def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.nd
         return est
     keep = np.isin(cont.rows, rows)
     out = est.copy()
-    out.attrs = dict(est.attrs)
     psi_cov = np.array(cov["psi"], dtype=float, copy=True)
     psi_cov[rows] = 0.0
     psi_cov[rows, :3, :3] = cont.cov[keep]
     cov["psi"] = psi_cov
-    out.attrs["cov"] = cov
     for j, (suffix, values) in enumerate((("", cont.psi), ("_d", cont.psi_d),
                                           ("_dd", cont.psi_dd))):
         out.loc[out.index[rows], "psi" + suffix] = values[keep]
         out.loc[out.index[rows], "psi" + suffix + "_sd"] = np.sqrt(cont.cov[keep, j, j])
     t = est["t"].to_numpy(dtype=float)
-    out.attrs["notes"] = [*est.attrs.get("notes", []), (
-        f"the counterweight's track ends at {t[last]:.4f} s while the beam's goes on to "
-        f"{t[rows[-1]]:.4f} s: psi is carried on by the counterweight's pendulum driven by "
-        f"the smoothed beam (sd at the end {np.degrees(np.sqrt(cont.cov[keep][-1, 0, 0])):.2g}"
-        " deg)")]
-    return out
+    note = (f"the counterweight's track ends at {t[last]:.4f} s while the beam's goes on to "
+            f"{t[rows[-1]]:.4f} s: psi is carried on by the counterweight's pendulum driven "
+            "by the smoothed beam (sd at the end "
+            f"{np.degrees(np.sqrt(cont.cov[keep][-1, 0, 0])):.2g} deg)")
+    return with_smoothing(out, fit.replace(cov=cov).noted(note))
