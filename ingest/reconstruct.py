@@ -72,6 +72,7 @@ from trebuchet.ingest.smoothing.smooth import (
     smooth,
     validated_log,
 )
+from trebuchet.ingest.systematic_angles import systematic_angles, with_systematic_angles
 from trebuchet.ingest.uncertainty import propagate
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.loads import loads
@@ -775,6 +776,9 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         est = widened_by_calibration(est, calibrated.common_sd)
         est = with_smoothing(est, smoothing_of(est).noted(*calibrated.notes))
     est = with_continued_counterweight(est, scene, angles_log[ANGLES.index("psi")])
+    found = smoothing_of(est).events
+    est = with_systematic_angles(est, systematic_angles(
+        log, scene, found.get("trigger"), found.get("release"), lengths=calibrated is None))
     info = read_log_info(log)
     lines = info.lines if info is not None and info.lines is not None \
         and len(info.lines) == len(est) else None
