@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from trebuchet.ingest.geometry.beam_hinge import beam_hinge
 from trebuchet.ingest.geometry.calibration import Calibration, calibrate
 from trebuchet.ingest.geometry.points import point_angles
 from trebuchet.ingest.logs.result import read_log_info
@@ -154,7 +155,8 @@ def mapped_angles(tracks: dict[str, np.ndarray], cal: Calibration) -> dict[str, 
     """θ, ψ, φ (rad, the paper's branch; NaN where a point is missing or flagged) by the
     same pairs of points as ``read_log`` takes (:data:`.geometry.points.NEEDS`), each point
     first taken to the engine's plane through the camera found: its marker offset (px)
-    taken off, the lens undone and the projective map inverted (``Camera.unproject``).
+    taken off, the lens undone and the projective map inverted (``Camera.unproject``); the
+    hinge, as in ``read_log``, filled and checked by the beam (:mod:`.geometry.beam_hinge`).
 
     Not the calibration's own per-frame angles (``cal.theta`` …, a constrained fit of every
     point of the frame): where its constraints switch (the stone leaving the trough) or
@@ -171,6 +173,10 @@ def mapped_angles(tracks: dict[str, np.ndarray], cal: Calibration) -> dict[str, 
         if gap is not None:
             xy[np.asarray(gap, bool)] = np.nan
         plane[role] = camera.unproject(xy - cal.offsets.get(role, 0.0))
+    if all(r in plane for r in ("pivot", "spigot", "hinge")):  # the hinge as read_log takes it
+        beam = beam_hinge(plane["pivot"], plane["spigot"], plane["hinge"])
+        if beam is not None:
+            plane["hinge"] = beam.xy
     return point_angles({role: (p[:, 0], p[:, 1]) for role, p in plane.items()})
 
 

@@ -62,6 +62,7 @@ from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.logs.scene_check import scene_check
 from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
+from trebuchet.ingest.smoothing.counterweight_continuation import with_continued_counterweight
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
 from trebuchet.ingest.smoothing.smooth import (
@@ -795,6 +796,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     if calibrated is not None:
         est = widened_by_calibration(est, calibrated.common_sd)
         est = with_smoothing(est, smoothing_of(est).noted(*calibrated.notes))
+    est = with_continued_counterweight(est, scene, angles_log[ANGLES.index("psi")])
     found = smoothing_of(est).events
     est = with_systematic_angles(est, systematic_angles(
         log, scene, found.get("trigger"), found.get("release"), lengths=calibrated is None))

@@ -39,6 +39,7 @@ __all__ = [
     "accelerations_phase2",
     "accelerations_phase3",
     "sling_pendulum_phi_dd",
+    "counterweight_pendulum_psi_dd",
     "state_rates_phase1",
     "state_rates_phase2",
     "state_rates_phase3",
@@ -103,7 +104,16 @@ def beam_and_counterweight(theta: Any, psi: Any, theta_d: Any, psi_d: Any, q_pro
     q = q + e.M * e.L2 * (e.L3 * psi_d * psi_d * s - c * (e.L2 * w2 * s + g * cos_ps)
                           + g * cos_th)
     theta_dd = q / (i + e.M * e.L2 * e.L2 * s * s)
-    return theta_dd, (e.L2 * (c * theta_dd - s * w2) - g * cos_ps) / e.L3
+    return theta_dd, counterweight_pendulum_psi_dd(theta, theta_d, theta_dd, psi, e, g, lib)
+
+
+def counterweight_pendulum_psi_dd(theta: Any, theta_d: Any, theta_dd: Any, psi: Any, e: Engine,
+                                  g: float, lib: ModuleType = np) -> Any:
+    """The hinged counterweight as a pendulum of length L3 hung from the moving hinge,
+    ``ψ̈ = (L2 (cos(θ−ψ) θ̈ − sin(θ−ψ) θ̇²) − g cos ψ)/L3`` (rad/s²; the second row of the
+    paper's eq. (A.1)), for any motion of the beam and in every phase."""
+    s, c = lib.sin(theta - psi), lib.cos(theta - psi)
+    return (e.L2 * (c * theta_dd - s * (theta_d * theta_d)) - g * lib.cos(psi)) / e.L3
 
 
 def accelerations_phase1(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .beam_hinge import beam_hinge
+
 __all__ = ["StuckRun", "stuck_runs", "OffEngine", "off_engine", "tracking_noise", "WINDOW",
            "STILL_SHARE"]
 
@@ -184,6 +186,45 @@ OFF_SHARE = 0.03
 OFF_RUN = 5
 
 
+#: A run off the engine this long (frames) means the tracker has lost its marker: the
+#: positions that follow on from it without a jump are still the wrong thing's.
+LOST_RUN = 5
+#: ...and it is back on its marker only after a jump followed by this many frames tracked on
+#: the engine.
+REACQUIRED = 10
+
+
+def _lost_on(xy: np.ndarray, off: np.ndarray, dev: np.ndarray, limit: float) -> np.ndarray:
+    """``off`` (n,) grown forward from each run of at least :data:`LOST_RUN` frames off (gaps
+    between them do not break a run) over the
+    positions ``xy`` (n, 2) that follow on from its last one without a jump back to the
+    engine (a step of at least half the tie's deviation ``dev`` there, and ``limit``, then
+    :data:`REACQUIRED` frames tracked and on the engine): a
+    template that slid onto an occluder moves on with it, and where the engine swings back
+    past it the tie may hold for a while by chance. Gaps are skipped (the step is taken
+    across them)."""
+    out = off.copy()
+    n = xy.shape[0]
+    missing = ~np.isfinite(xy).all(axis=1)
+    for first, last in _runs(off | missing):  # a run broken only by gaps is one run
+        hit = np.flatnonzero(off[first:last + 1])
+        if hit.size < LOST_RUN:
+            continue
+        last = first + int(hit[-1])
+        jump = max(0.5 * float(dev[last]), limit)
+        prev, k = xy[last], last + 1
+        while k < n:
+            if not missing[k]:
+                back = k + REACQUIRED
+                if (np.hypot(*(xy[k] - prev)) >= jump and back <= n
+                        and not (missing[k:back] | off[k:back]).any()):
+                    break
+                out[k] = True
+                prev = xy[k]
+            k += 1
+    return out
+
+
 @dataclass(frozen=True)
 class OffEngine:
     """Frames ``first``..``last`` where ``point`` lies off the engine: its tie to
@@ -217,8 +258,14 @@ def off_engine(positions: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[OffE
     ties["spigot"] = (np.hypot(arm[:, 0], arm[:, 1]), 0.0)
     if "hinge" in xy:
         ties["hinge"] = _tie(xy, "hinge", "spigot")
+    beam = None
     if "counterweight" in xy and "hinge" in xy:
-        ties["counterweight"] = _tie(xy, "counterweight", "hinge")
+        # the hinge the beam puts there (tracked where it agrees): a hinge hidden or off its
+        # marker neither hides nor fakes a counterweight off its arm
+        beam = beam_hinge(xy["pivot"], xy["spigot"], xy["hinge"])
+        arm = xy["counterweight"] - (xy["hinge"] if beam is None else beam.xy)
+        d = np.hypot(arm[:, 0], arm[:, 1])
+        ties["counterweight"] = (d, float(np.nanmedian(d)))
     if "projectile" in xy:
         ties["projectile"] = _tie(xy, "projectile", "spigot")
     partners = {"spigot": "pivot", "hinge": "spigot", "counterweight": "hinge",
@@ -234,10 +281,15 @@ def off_engine(positions: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[OffE
     # blame the point whose own tie breaks, not the partner it drags along
     if "hinge" in bad:
         bad["hinge"] &= ~bad["spigot"]
-    if "counterweight" in bad and "hinge" in bad:
+    if "counterweight" in bad and "hinge" in bad and beam is None:
         bad["counterweight"] &= ~bad["hinge"]
     if "projectile" in bad:
         bad["projectile"] &= ~bad["spigot"]
+    for point, mask in bad.items():
+        if point != "projectile":
+            d = ties[point][0]
+            limit = max(OFF_SD * _robust_sd(d), OFF_SHARE * size[point])
+            bad[point] = _lost_on(xy[point], mask, np.abs(d - np.nanmedian(d)), limit)
     found = []
     for point, mask in bad.items():
         d = ties[point][0]

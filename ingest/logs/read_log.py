@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import Option, TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.ingest.geometry.beam_hinge import beam_hinge, hinge_note
 from trebuchet.ingest.geometry.points import NEEDS, point_angles, resolve_points
 from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
 from trebuchet.ingest.geometry.stuck_points import off_engine, stuck_runs
@@ -445,7 +446,8 @@ def _from_points(
             f"{role} ('{chosen[role].label}') lies off the engine's geometry (its distance or "
             f"line to the {TIED[role]} breaks) in {format_rows(source.rows[frames])}: a "
             "tracker's wrong match; those positions are left out as gaps")
-    angles = point_angles(positions)
+    hinge = _hinge_of_the_beam(positions, source, chosen, repairs)
+    angles = point_angles(positions if hinge is None else positions | {"hinge": hinge})
     leaves, note = _cut_flight_from_sling(source, positions, angles)
     if note:
         repairs.append(note)
@@ -473,6 +475,20 @@ def _from_points(
         leaves_sling=leaves,
         decisions=decisions,
     )
+
+
+def _hinge_of_the_beam(positions: dict[str, tuple[np.ndarray, np.ndarray]], source: LogSource,
+                       chosen: Mapping, repairs: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The hinge (x, y) for psi: the tracked one, filled and checked by the beam through pivot
+    and spigot (:mod:`.beam_hinge`; a note in ``repairs``), or None to keep it as tracked."""
+    if not all(r in positions for r in ("pivot", "spigot", "hinge")):
+        return None
+    fit = beam_hinge(*(np.column_stack(positions[r]) for r in ("pivot", "spigot", "hinge")))
+    note = None if fit is None else hinge_note(fit, source.rows, chosen["hinge"].label)
+    if note is None:
+        return None
+    repairs.append(note)
+    return fit.xy[:, 0], fit.xy[:, 1]
 
 
 def _cut_flight_from_sling(source: LogSource, positions: dict[str, tuple[np.ndarray, np.ndarray]],

@@ -125,6 +125,12 @@ def near_branch(measured: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return measured - 2 * np.pi * np.round((measured - reference) / (2 * np.pi))
 
 
+#: Key of ``angles_of``'s mask of the rows whose psi comes from the beam's hinge, and the
+#: tolerance (rad) of psi there: the beam fit's noise, not the rounding of the numbers.
+BEAM_ROWS = "psi_from_beam"
+BEAM_TOL = 0.01
+
+
 def angles_of(points: dict[str, tuple[np.ndarray, np.ndarray]], y_up: bool,
               reference: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """The paper's angles from written positions (y up, or y down for image pixels), on
@@ -142,4 +148,11 @@ def angles_of(points: dict[str, tuple[np.ndarray, np.ndarray]], y_up: bool,
             last = fill[np.isfinite(fill)][-1]
             fill = np.where(np.isfinite(fill), fill, last)
         out[angle] = near_branch(raw, fill)
+    # a hinge the tracker lost where pivot and spigot are tracked is the beam's: read_log
+    # fills it from them (ingest/geometry/beam_hinge.py), so psi is there, the shot's own
+    beam = np.isfinite(points["pivot"][0]) & np.isfinite(points["spigot"][0])
+    lost = beam & ~np.isfinite(points["hinge"][0]) & np.isfinite(points["counterweight"][0])
+    # (to the beam fit's noise: BEAM_TOL, marked by BEAM_ROWS)
+    out["psi"] = np.where(lost, reference["psi"], out["psi"])
+    out[BEAM_ROWS] = lost.astype(float)
     return out

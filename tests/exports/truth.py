@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .shot import ANGLES
+from .shot import ANGLES, BEAM_ROWS
 
 
 @dataclass
@@ -46,7 +46,8 @@ class Truth:
         for a in ANGLES:
             present |= np.isfinite(self.angles[a])
         self.t = np.asarray(self.t, dtype=float)[present]
-        self.angles = {a: np.asarray(self.angles[a], dtype=float)[present] for a in ANGLES}
+        self.angles = {a: np.asarray(self.angles[a], dtype=float)[present]
+                       for a in (*ANGLES, BEAM_ROWS) if a in self.angles}
 
 
 def hdf5_writable() -> bool:
