@@ -55,7 +55,9 @@ from trebuchet.ingest.events.release_model import (
     release_from_model,
     scene_doubt,
 )
+from trebuchet.ingest.events.release_sources import TrackEndRelease, release_at_track_end
 from trebuchet.ingest.events.sling_continuation import continued_sling
+from trebuchet.ingest.events.stone_flight import points_stone_release
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.logs.scene_check import scene_check
@@ -524,13 +526,6 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     return est, fitted.sd
 
 
-#: A sling track that ends is a lost track, not the release, where the engine's equations
-#: put the release this many of their sd after the first frame the track misses (at 1 sd,
-#: 3 of 4 simulated logs at 60–120 fps and 1–2° whose track ends at the release were
-#: taken for lost ones: the sd is the model's, the track end's own is a frame).
-LOST_TRACK_SD = 3.0
-
-
 def _model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
                    settings: ReleaseFit) -> ModelRelease:
     """:func:`.events.release_model.release_from_model` on the log's raw θ and ψ (rad,
@@ -581,33 +576,54 @@ def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFra
                       r: float | Mapping[str, float] | None,
                       track_end: tuple[float, float]) -> tuple[pd.DataFrame, float]:
     """The smoothed log and the release's sd (s) where the sling's track ends while θ and ψ
-    go on: a release only if the engine agrees. φ is carried on past the track by the
-    sling's pendulum, and the release is sought in θ and ψ with the engine's equations
-    (:func:`_model_release`). Where they put it, by :data:`LOST_TRACK_SD` of its sd, after
-    the first frame the track misses, the track was lost, not released: the log is
-    smoothed again with the equations' release, φ carried on up to it (phase II keeps its
-    sling loads), and a note says so; else the track's end stands (``est`` as it is)."""
+    go on: a release only if the engine or the stone agrees
+    (:func:`.events.release_sources.release_at_track_end`). The sources: the engine's
+    equations on θ and ψ (:func:`_model_release`, φ carried on past the track by the
+    sling's pendulum) and, for a point log, the tracked stone leaving its sling's circle
+    (:func:`.events.stone_flight.points_stone_release`). A track lost before the release
+    (the equations put it well after the track's end): the log is smoothed again with the
+    equations' release, φ carried on up to it (phase II keeps its sling loads), and a note
+    says so. A release before the track's end (the stone tracked in flight): smoothed
+    again with it, φ left out after it (a flying stone's direction is no sling angle).
+    Else the track's end stands (``est`` as it is). Sources that disagree warn
+    (ModelValidityWarning), naming the one taken."""
     settings = options.release_model
     phi = est["phi"].to_numpy(dtype=float)
     last = int(np.flatnonzero(np.isfinite(phi))[-1])
+    t = est["t"].to_numpy(dtype=float)
     fitted = _model_release(angles_log, _with_continued_sling(est, scene, last), scene,
                             settings)
-    t = est["t"].to_numpy(dtype=float)
-    if (fitted.time is None or not fitted.misfit <= settings.max_misfit
-            or fitted.time - LOST_TRACK_SD * fitted.sd <= t[last + 1]):
-        return est, track_end[1]
-    t_last = float(t[last])
-    again = _smooth_again(log, est, options, smooth_events, q, r, fitted.time)
-    again = _with_continued_sling(again, scene, last, until=fitted.time)
-    again.attrs["event_sources"]["release"] = (
-        f"the engine's equations (the sling's track was lost at {t_last:.4f} s)")
-    gap = fitted.time - track_end[0]
-    again.attrs["notes"] = [*again.attrs.get("notes", []), (
-        f"the sling's track ends at {t_last:.4f} s, but θ and ψ follow the engine in the sling "
-        f"until {fitted.time:.4f} s (sd {1e3 * fitted.sd:.1f} ms, {1e3 * gap:.0f} ms later): "
-        "the track was lost, not released; φ is carried on by the sling's pendulum up to the "
-        "release")]
-    return again, fitted.sd
+    info = read_log_info(log)
+    stone = (None if info is None or info.points is None
+             else points_stone_release(info.points, scene, float(t[last])))
+    choice = release_at_track_end(track_end, float(t[last]), float(t[last + 1]),
+                                  float(np.median(np.diff(t))), stone, fitted,
+                                  TrackEndRelease(max_misfit=settings.max_misfit))
+    if choice.warning is not None:
+        name = Path(str(log.attrs.get("source", "log"))).name
+        warnings.warn(f"{name}: {choice.warning}", ModelValidityWarning, stacklevel=3)
+    said = [n for n in (choice.note, choice.warning) if n is not None]
+    if choice.kind == "track end" and choice.time == track_end[0]:
+        est.attrs["notes"] = [*est.attrs.get("notes", []), *said]
+        return est, choice.sd
+    if choice.kind == "lost":
+        t_last = float(t[last])
+        again = _smooth_again(log, est, options, smooth_events, q, r, choice.time)
+        again = _with_continued_sling(again, scene, last, until=choice.time)
+        again.attrs["event_sources"]["release"] = choice.source
+        gap = choice.time - track_end[0]
+        again.attrs["notes"] = [*again.attrs.get("notes", []), (
+            f"the sling's track ends at {t_last:.4f} s, but θ and ψ follow the engine in the "
+            f"sling until {choice.time:.4f} s (sd {1e3 * choice.sd:.1f} ms, "
+            f"{1e3 * gap:.0f} ms later): the track was lost, not released; φ is carried on "
+            "by the sling's pendulum up to the release"), *said]
+        return again, choice.sd
+    cut = log.copy()
+    cut.loc[cut["t"].to_numpy(dtype=float) > choice.time, "phi"] = np.nan
+    again = _smooth_again(cut, est, options, smooth_events, q, r, choice.time)
+    again.attrs["event_sources"]["release"] = choice.source
+    again.attrs["notes"] = [*again.attrs.get("notes", []), *said]
+    return again, choice.sd
 
 
 def _smooth_again(log: pd.DataFrame, est: pd.DataFrame, options: ReconstructOptions,
