@@ -47,7 +47,12 @@ from trebuchet.errors import (
 )
 from trebuchet.ingest.advisory import resolution_advisories
 from trebuchet.ingest.calibrated_angles import calibrated_log, widened_by_calibration
-from trebuchet.ingest.events.lift_off import lift_off_sd, lift_off_time
+from trebuchet.ingest.events.lift_off import (
+    lift_off_sd,
+    lift_off_time,
+    offset_widened_sd,
+    rest_offset,
+)
 from trebuchet.ingest.events.release_model import (
     ModelRelease,
     ReleaseFit,
@@ -319,7 +324,10 @@ def _event_variance(t: np.ndarray, event: float | None, sd: float,
 def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
                      trigger: float | None, release: float | None,
                      options: ReconstructOptions) -> tuple[float | None, float]:
-    """Lift-off (s, log time) and its sd (s) from the phase-I normal force on every row."""
+    """Lift-off (s, log time) and its sd (s) from the phase-I normal force on every row;
+    the sd widened by the shift the angles' common offset at rest (the log's θ at rest
+    against the scene's start θ: a camera's roll) makes (:func:`.events.lift_off.
+    offset_widened_sd`)."""
     t = state["t"].to_numpy()
     trial = shot_phases(t, scene, trigger, None, None)
     trial[trial == 3] = 1
@@ -335,7 +343,14 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     prop = propagate(lambda s: _evaluate(s, np.resize(trial[rows], len(s)), scene,
                                          options.form, options.trough),
                      sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True)
-    return when, lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
+    sd = lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
+    offset = rest_offset(t, state["theta"].to_numpy(), trigger, scene.start.theta)
+    if np.isfinite(offset) and offset != 0.0:  # the angles' common offset moves F_N's zero
+        shifted = state.assign(theta=state["theta"].to_numpy() - offset)
+        fn_shifted = _evaluate(shifted, trial, scene, options.form, options.trough)["F_N"]
+        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted.to_numpy(), trigger,
+                                                        release))
+    return when, sd
 
 
 def sling_track_end(log: pd.DataFrame, min_frames: int = 3) -> tuple[float, float] | None:
