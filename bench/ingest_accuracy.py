@@ -124,7 +124,7 @@ def one_run(engine: str, fps: int, noise: float, seed: int, model: str = "ca",
                 found = ev.get(key)
                 row[f"{key}_err_frames"] = (np.nan if found is None or key not in true_ev
                                             else (found - true_ev[key]) * fps)
-            row["advisories"] = len(res.attrs["advisories"])
+            row["advisories"] = len(res.attrs["reconstruction"].advisories)
             rows.append(row)
     return rows
 

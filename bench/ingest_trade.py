@@ -72,7 +72,7 @@ def run(out_dir: str | Path | None = None) -> pd.DataFrame:
         for fps, noise in CELLS:
             for seed in SEEDS:
                 log, truth = simulated_log(scene, fps, noise, seed=seed, drop_fraction=0.02)
-                ml = reconstruct(log, scene).attrs["noise"]  # warm-up and the ML q
+                ml = reconstruct(log, scene).attrs["reconstruction"].noise  # warm-up and the ML q
                 for setting in SETTINGS:
                     rows.append({"fps": fps, "noise_deg": noise, "setting": setting,
                                  "seed": seed, **_one(log, truth, setting, ml)})

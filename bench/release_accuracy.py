@@ -60,10 +60,10 @@ def one_log(engine: str, kind: str, fps: int, noise: float, seed: int) -> dict:
         row[label + "err"] = err
         row[label + "FS"] = 100.0 * (float(res["F_S_abs"].max()) / peak - 1.0)
         if label == "":
-            sd = res.attrs["event_sd"]["release"] * fps
+            sd = res.attrs["reconstruction"].event_sd["release"] * fps
             row["z"] = err / sd if sd > 0 else np.nan
             row["seconds"] = seconds
-            row["source"] = res.attrs["event_sources"]["release"]
+            row["source"] = res.attrs["reconstruction"].event_sources["release"]
     return row
 
 

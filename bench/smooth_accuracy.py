@@ -49,7 +49,7 @@ def accuracy_row(
                 peak = np.ptp(truth[a].to_numpy())
             row[f"{a}_{label}_rms_rel"] = float(np.sqrt(np.mean(err[ok] ** 2)) / peak)
             row[f"{a}_{label}_cover2sd"] = float(np.mean(np.abs(err[ok]) <= 2 * sd[ok]))
-        row[f"{a}_r_sd_ratio"] = est.attrs["noise"][a]["r_sd"] / np.deg2rad(noise_deg)
+        row[f"{a}_r_sd_ratio"] = est.attrs["smoothing"].noise[a]["r_sd"] / np.deg2rad(noise_deg)
     trig = est.attrs["events"]["trigger"]
     row["trigger_err_frames"] = np.nan if trig is None else (trig - TRIGGER) * fps
     rel = est.attrs["events"]["release"]

@@ -17,6 +17,8 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.ingest.geometry.calibration import Calibration, calibrate
+from trebuchet.ingest.logs.result import read_log_info
+from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
 from trebuchet.model.scene import Scene
 
 __all__ = ["CalibratedLog", "calibrated_log", "point_tracks", "widened_by_calibration",
@@ -41,9 +43,11 @@ class CalibratedLog:
 
 
 def point_tracks(log: pd.DataFrame) -> dict[str, np.ndarray] | None:
-    """The tracked points of a point log (``attrs["points"]`` of ``read_log``) as
-    ``{role: (n, 2)}`` in the file's unit, y up; None for a log of angles."""
-    points = log.attrs.get("points")
+    """The tracked points of a point log (``ReadLog.points`` of ``read_log``'s
+    ``attrs["log"]``) as ``{role: (n, 2)}`` in the file's unit, y up; None for a log of
+    angles."""
+    info = read_log_info(log)
+    points = None if info is None else info.points
     if not points:
         return None
     out = {}
@@ -91,13 +95,12 @@ def calibrated_log(log: pd.DataFrame, scene: Scene) -> CalibratedLog | None:
         return None
     t = log["t"].to_numpy(dtype=float)
     vacuum = scene.flight.model == "vacuum"
-    factor = pixel_factor(tracks, log.attrs.get("format"))
+    factor = pixel_factor(tracks, read_log_info(log).format)
     if factor != 1.0:  # world units (m, cm): the priors speak of pixels
         tracks = {role: xy * factor for role, xy in tracks.items()}
     cal = calibrate(tracks, scene.engine, H=scene.start.H, g=scene.g if vacuum else None,
                     t=t, trough=scene.projectile == "trough")
     out = log.copy()
-    out.attrs = dict(log.attrs)
     for name in ("theta", "psi", "phi"):
         fitted = np.asarray(getattr(cal, name), dtype=float)
         had = np.isfinite(log[name].to_numpy(dtype=float))
@@ -117,12 +120,12 @@ def calibrated_log(log: pd.DataFrame, scene: Scene) -> CalibratedLog | None:
 def widened_by_calibration(est: pd.DataFrame, common_sd: dict[str, np.ndarray]
                            ) -> pd.DataFrame:
     """The smoother's output ``est`` with each angle's sd (and the angle's variance in
-    ``attrs["cov"]``) widened by the calibration's sd ``common_sd`` (rad), in quadrature: the
+    the smoothing's ``cov``) widened by the calibration's sd ``common_sd`` (rad), in quadrature: the
     camera's uncertainty moves every frame's angle alike, so it is a bias of the whole log
     that the smoother cannot see in the scatter."""
     out = est.copy()
-    out.attrs = dict(est.attrs)
-    cov = dict(est.attrs["cov"])
+    fit = smoothing_of(est)
+    cov = dict(fit.cov)
     for name, sd in common_sd.items():
         if name not in cov or not np.any(sd > 0):
             continue
@@ -130,5 +133,4 @@ def widened_by_calibration(est: pd.DataFrame, common_sd: dict[str, np.ndarray]
         c = np.array(cov[name], dtype=float, copy=True)
         c[:, 0, 0] += sd**2
         cov[name] = c
-    out.attrs["cov"] = cov
-    return out
+    return with_smoothing(out, fit.replace(cov=cov))

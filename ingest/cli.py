@@ -11,7 +11,9 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError, cli_command
+from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.reconstruct import FORMS, TROUGH, reconstruct
+from trebuchet.ingest.reconstruction import reconstruction_of
 from trebuchet.output import check_target, write_csv
 
 __all__ = ["register", "forces_summary", "parse_pairs", "add_log_arguments", "log_options",
@@ -171,19 +173,20 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     """The summary the command prints: log, noise per angle, events, repairs, peak loads
     with their sd, advisories, validity findings and notes (e.g. a log without rest, whose
     ``t_shot`` counts from its first row)."""
-    a = result.attrs
-    lines = [f"log: {a.get('source', 'log')} ({a.get('format', 'table')}), {len(result)} rows, "
-             f"{a.get('fps', float('nan')):.4g} fps; formulas: {a.get('form')}"]
-    noise = a.get("noise", {})
-    if noise:
-        parts = [f"{k} {math.degrees(v['r_sd']):.3g}°" for k, v in noise.items()]
+    a = reconstruction_of(result)
+    info = read_log_info(result)
+    source, fmt, repairs = (("log", "table", ()) if info is None
+                            else (info.source, info.format, info.repairs))
+    lines = [f"log: {source} ({fmt}), {len(result)} rows, "
+             f"{a.fps:.4g} fps; formulas: {a.form}"]
+    if a.noise:
+        parts = [f"{k} {math.degrees(v['r_sd']):.3g}°" for k, v in a.noise.items()]
         lines.append("angle noise (sd, maximum likelihood): " + ", ".join(parts))
-    ev, sd, src = a["events"], a.get("event_sd", {}), a.get("event_sources", {})
+    ev, sd, src = a.events, a.event_sd, a.event_sources
     lines.append("events (log time):")
     for key, label in (("trigger", "trigger"), ("lift_off", "lift-off"), ("release", "release")):
         lines.append(f"  {label:9s}{_fmt_time(ev.get(key), sd.get(key))}"
                      f"  ({src.get(key, '')})")
-    repairs = a.get("repairs", [])
     lines.append("repairs:" + (" none" if not repairs else ""))
     lines += [f"  {r}" for r in repairs]
     lines.append("peak loads (sd at the peak):")
@@ -199,10 +202,10 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
                      f"{unit} at t = {t[i]:.4f} s")
     for key, title in (("advisories", "resolution advisory"), ("validity", "model validity"),
                        ("notes", "notes")):
-        items = a.get(key, [])
+        items = getattr(a, key)
         if items:
             lines.append(f"{title}:")
-            lines += [f"  {it['message'] if isinstance(it, dict) else it}" for it in items]
+            lines += [f"  {getattr(it, 'message', it)}" for it in items]
     if output:
         lines.append(f"-> {output} ({result.shape[1]} columns)")
     return "\n".join(lines)

@@ -60,6 +60,7 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError, check_choice
+from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.uncertainty import BAND_SD
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import Trajectory, integrate, simulate
@@ -398,7 +399,8 @@ def metrics(measured: pd.DataFrame, predicted: pd.DataFrame, *, band_sd: float =
 def event_table(measured: pd.DataFrame, predicted: pd.DataFrame) -> pd.DataFrame:
     """Start of motion, lift-off and release, s after the log's detected trigger: measured
     (with sd where known), predicted and predicted − measured."""
-    event_sd = measured.attrs.get("event_sd") or {}
+    done = measured.attrs.get("reconstruction")
+    event_sd = done.event_sd if isinstance(done, Reconstruction) else {}
     found = shot_events(measured) | {"start": 0.0}
     pred = shot_events(predicted) | {"start": float(predicted.attrs.get("lag", 0.0))}
     rows = []
@@ -538,14 +540,15 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
     where the quantity has no compared rows).
 
     ``measured`` must come from :func:`~trebuchet.ingest.reconstruct.reconstruct` (its
-    ``attrs`` give the noise per angle, the form and the trough setting); ``log``, the log
+    :class:`~trebuchet.ingest.reconstruction.Reconstruction` gives the noise per angle,
+    the form and the trough setting); ``log``, the log
     it was reconstructed from, gives the simulated logs its gaps (a lost sling track stays
     lost).
     """
     from trebuchet.ingest.reconstruct import reconstruct
 
-    a = measured.attrs
-    noise = a.get("noise") or {}
+    a = reconstruction_of(measured)
+    noise = a.noise
     # every event is found in each simulated log as in the real one: their errors and sd
     # shape the loads and bands of the frames around them
     truth = _truth_log(measured, predicted, scene, log)
@@ -560,11 +563,10 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
             r_sd = float((noise.get(angle) or {}).get("r_sd", math.nan))
             if math.isfinite(r_sd):
                 log[angle] = log[angle] + r_sd * rng.standard_normal(len(log))
-        log.attrs["source"] = "a simulated log of the model"
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                sim = reconstruct(log, scene, form=a.get("form"), trough=a.get("trough"))
+                sim = reconstruct(log, scene, form=a.form, trough=a.trough)
             except TrebuchetInputError:
                 continue
         sim.index = measured.index

@@ -66,8 +66,10 @@ from trebuchet.ingest.events.stone_flight import points_stone_release
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.logs.scene_check import scene_check
+from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
+from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
 from trebuchet.ingest.smoothing.smooth import (
     ANGLES,
     SUFFIXES,
@@ -357,7 +359,7 @@ def sling_track_end(log: pd.DataFrame, min_frames: int = 3) -> tuple[float, floa
     """Release time (s) and its sd (s) when the sling angle's track ends at least
     ``min_frames`` frames before the others': midway between its last frame and the next,
     sd = that gap / √12 (uniform); or, where ``read_log`` cut the track where a tracked
-    stone leaves its sling's circle (``attrs["leaves_sling"]``), that fitted time and its
+    stone leaves its sling's circle (``ReadLog.leaves_sling``), that fitted time and its
     sd. None otherwise."""
     t = log["t"].to_numpy(dtype=float)
     ok = {a: np.flatnonzero(np.isfinite(log[a].to_numpy(dtype=float))) for a in ANGLES}
@@ -367,9 +369,10 @@ def sling_track_end(log: pd.DataFrame, min_frames: int = 3) -> tuple[float, floa
     others = max(int(ok["theta"][-1]), int(ok["psi"][-1]))
     if others - last < min_frames or last + 1 >= t.size:
         return None
-    leaves = log.attrs.get("leaves_sling")
-    if leaves is not None and t[last] <= leaves["t"] < t[last + 1]:
-        return float(leaves["t"]), float(leaves["sd"])
+    info = read_log_info(log)
+    leaves = None if info is None else info.leaves_sling
+    if leaves is not None and t[last] <= leaves[0] < t[last + 1]:
+        return float(leaves[0]), float(leaves[1])
     gap = t[last + 1] - t[last]
     return float(t[last] + 0.5 * gap), float(gap / np.sqrt(12.0))
 
@@ -385,7 +388,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     advisories and validity findings then name rows by them, as the reader's notes do.
 
     ``events``: given event times (s, log time; None = no such event) overriding those in
-    ``est.attrs["events"]`` and the lift-off detection; ``release_sd`` (s): sd of the
+    the smoothing's and the lift-off detection; ``release_sd`` (s): sd of the
     release time in ``est`` if known (default ``event_sd_frames`` frames). Returns the
     frame of :func:`reconstruct` (without the log's own attrs).
     """
@@ -393,10 +396,10 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     given = dict(events or {})
     t = est["t"].to_numpy(dtype=float)
     state = _state(est)
-    cov = {a: np.asarray(c, dtype=float) for a, c in est.attrs["cov"].items()}
-    cov = {a: c[:, :3, :3] for a, c in cov.items()}
-    found = dict(est.attrs.get("events", {}))
-    sources = dict(est.attrs.get("event_sources", {}))
+    fit = smoothing_of(est)
+    cov = {a: np.asarray(c, dtype=float)[:, :3, :3] for a, c in fit.cov.items()}
+    found = dict(fit.events)
+    sources = dict(fit.event_sources)
     trigger = given["trigger"] if "trigger" in given else found.get("trigger")
     release = given["release"] if "release" in given else found.get("release")
     if scene.projectile == "none":
@@ -405,7 +408,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         release = _release_within_sling_track(t, est["phi"].to_numpy(dtype=float), release)
     fps = 1.0 / float(np.median(np.diff(t)))
     sd_event = options.event_sd_frames / fps
-    trigger_sd = est.attrs.get("event_sd", {}).get("trigger", sd_event)
+    trigger_sd = fit.event_sd.get("trigger", sd_event)
     event_sd = {"trigger": 0.0 if "trigger" in given or trigger is None else trigger_sd,
                 "release": 0.0 if "release" in given or release is None
                 else (sd_event if release_sd is None else release_sd)}
@@ -443,11 +446,11 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         out[c + "_sd"] = sd[:, j]
     result = pd.DataFrame(out, index=est.index)
 
-    notes = list(est.attrs.get("notes", []))
+    notes = list(fit.notes)
     if trigger is None:
         notes.append("no rest found at the start: t_shot counts from the first frame")
     moving = phase > 0
-    noise = est.attrs.get("noise", {})
+    noise = fit.noise
     noise_deg = float(np.degrees(np.median([v["r_sd"] for v in noise.values()]))) \
         if noise else float("nan")
     col = {c: j for j, c in enumerate(prop.names)}
@@ -460,20 +463,12 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                                  result["phi"].to_numpy(), scene,
                                  tension=result["sling_tension"].to_numpy(),
                                  tension_sd=result["sling_tension_sd"].to_numpy(), lines=lines)
-    result.attrs.update({
-        "events": {"trigger": trigger, "lift_off": lift, "release": release},
-        "event_sd": event_sd,
-        "event_sources": sources,
-        "noise": noise,
-        "form": options.form,
-        "trough": options.trough,
-        "model": est.attrs.get("model"),
-        "preset": options.preset,
-        "fps": fps,
-        "advisories": [dataclasses.asdict(a) | {"rows": list(a.rows)} for a in advice],
-        "validity": validity,
-        "notes": notes,
-    })
+    events = {"trigger": trigger, "lift_off": lift, "release": release}
+    result.attrs["events"] = dict(events)
+    result.attrs["reconstruction"] = Reconstruction(
+        events=events, event_sd=event_sd, event_sources=sources, noise=noise,
+        form=options.form, trough=options.trough, model=fit.model, preset=options.preset,
+        fps=fps, advisories=advice, validity=validity, notes=notes)
     return result
 
 
@@ -511,12 +506,12 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     model's release is still used). ``angles_log`` (3, n): the log's θ, ψ, φ (rad) as
     :func:`~.smooth.validated_log` gave them."""
     settings = options.release_model
-    found = est.attrs["events"]
+    found = smoothing_of(est).events
     fitted = _model_release(angles_log, est, scene, settings)
     t = est["t"].to_numpy(dtype=float)
     sd_free = options.event_sd_frames * float(np.median(np.diff(t)))
     use, sentence = release_choice(fitted, found.get("release"), settings)
-    name = Path(str(log.attrs.get("source", "log"))).name
+    name = Path(_source(log)).name
     if sentence is not None and not use:
         warnings.warn(f"{name}: {sentence}", ModelValidityWarning, stacklevel=3)
     doubt = scene_doubt(fitted, settings)
@@ -525,20 +520,17 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     if not use:
         # the smoother's own release stands: the log smoothed again with it given
         est = _smooth_again(log, est, options, smooth_events, q, r, found.get("release"))
-        if doubt is not None:
-            est.attrs["notes"] = [*est.attrs.get("notes", []), doubt]
+        est = with_smoothing(est, smoothing_of(est).noted(doubt, sentence))
         if sentence is not None:
-            est.attrs["notes"] = [*est.attrs.get("notes", []), sentence]
             return est, None
         # agreed: the smoother's time stands, with the wider of the two sds
         return est, (None if fitted.time is None or found.get("release") is None
                      else max(sd_free, fitted.sd))
-    notes = list(est.attrs.get("notes", []))
+    notes = smoothing_of(est).notes
     est = _smooth_again(log, est, options, smooth_events, q, r, fitted.time)
-    est.attrs["event_sources"]["release"] = fitted.how
-    est.attrs["notes"] = [*notes, *(n for n in est.attrs.get("notes", []) if n not in notes),
-                          sentence, *([doubt] if doubt is not None else [])]
-    return est, fitted.sd
+    again = smoothing_of(est)
+    again = again.replace(notes=notes).noted(*again.notes, sentence, doubt)
+    return with_smoothing(est, again.with_source("release", fitted.how)), fitted.sd
 
 
 def _model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
@@ -546,24 +538,26 @@ def _model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
     """:func:`.events.release_model.release_from_model` on the log's raw θ and ψ (rad,
     unwrapped as the smoother does; ``angles_log`` (3, n) as ``validated_log`` gave them)
     and the smoothed ``est``, with the smoother's noise sd and trigger."""
-    noise = est.attrs["noise"]  # theta and psi are tracked (reconstruct checks)
+    fit = smoothing_of(est)
+    noise = fit.noise  # theta and psi are tracked (reconstruct checks)
     angles = {}
     for a in ("theta", "psi"):
         z = angles_log[ANGLES.index(a)].copy()
         ok = np.isfinite(z)
         z[ok] = np.unwrap(z[ok])  # as the smoother does
         angles[a] = z
-    return release_from_model(angles, est, scene, est.attrs["events"].get("trigger"),
+    return release_from_model(angles, est, scene, fit.events.get("trigger"),
                               {a: noise[a]["r_sd"] for a in ("theta", "psi")}, settings)
 
 
 def _with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
                           until: float | None = None) -> pd.DataFrame:
-    """``est`` with φ, φ̇, φ̈ and their sd (and ``attrs["cov"]["phi"]``) filled on the rows
+    """``est`` with φ, φ̇, φ̈ and their sd (and the smoothing's ``cov["phi"]``) filled on the rows
     after the sling track's last row ``last`` (up to the time ``until``, s; all rows if
     None) by the sling's pendulum driven by the smoothed beam
     (:mod:`.events.sling_continuation`)."""
-    cov = dict(est.attrs["cov"])
+    fit = smoothing_of(est)
+    cov = dict(fit.cov)
     cont = continued_sling({c: est[c].to_numpy(dtype=float) for c in
                             ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")},
                            scene, last, cov["phi"][last][:3, :3])
@@ -571,12 +565,11 @@ def _with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
         est["t"].to_numpy(dtype=float)[cont.rows] <= until)
     rows = cont.rows[keep]
     out = est.copy()
-    out.attrs = dict(est.attrs)
     phi_cov = np.array(cov["phi"], dtype=float, copy=True)
     phi_cov[rows] = 0.0
     phi_cov[rows, :3, :3] = cont.cov[keep]
     cov["phi"] = phi_cov
-    out.attrs["cov"] = cov
+    with_smoothing(out, fit.replace(cov=cov))
     for j, (suffix, values) in enumerate((("", cont.phi), ("_d", cont.phi_d),
                                           ("_dd", cont.phi_dd))):
         out.loc[out.index[rows], "phi" + suffix] = values[keep]
@@ -615,30 +608,28 @@ def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFra
                                   float(np.median(np.diff(t))), stone, fitted,
                                   TrackEndRelease(max_misfit=settings.max_misfit))
     if choice.warning is not None:
-        name = Path(str(log.attrs.get("source", "log"))).name
-        warnings.warn(f"{name}: {choice.warning}", ModelValidityWarning, stacklevel=3)
-    said = [n for n in (choice.note, choice.warning) if n is not None]
+        warnings.warn(f"{Path(_source(log)).name}: {choice.warning}", ModelValidityWarning,
+                      stacklevel=3)
     if choice.kind == "track end" and choice.time == track_end[0]:
-        est.attrs["notes"] = [*est.attrs.get("notes", []), *said]
-        return est, choice.sd
+        return with_smoothing(est, smoothing_of(est).noted(choice.note, choice.warning)), \
+            choice.sd
     if choice.kind == "lost":
         t_last = float(t[last])
         again = _smooth_again(log, est, options, smooth_events, q, r, choice.time)
         again = _with_continued_sling(again, scene, last, until=choice.time)
-        again.attrs["event_sources"]["release"] = choice.source
         gap = choice.time - track_end[0]
-        again.attrs["notes"] = [*again.attrs.get("notes", []), (
+        fit = smoothing_of(again).with_source("release", choice.source).noted(
             f"the sling's track ends at {t_last:.4f} s, but θ and ψ follow the engine in the "
             f"sling until {choice.time:.4f} s (sd {1e3 * choice.sd:.1f} ms, "
             f"{1e3 * gap:.0f} ms later): the track was lost, not released; φ is carried on "
-            "by the sling's pendulum up to the release"), *said]
-        return again, choice.sd
+            "by the sling's pendulum up to the release", choice.note, choice.warning)
+        return with_smoothing(again, fit), choice.sd
     cut = log.copy()
     cut.loc[cut["t"].to_numpy(dtype=float) > choice.time, "phi"] = np.nan
     again = _smooth_again(cut, est, options, smooth_events, q, r, choice.time)
-    again.attrs["event_sources"]["release"] = choice.source
-    again.attrs["notes"] = [*again.attrs.get("notes", []), *said]
-    return again, choice.sd
+    fit = smoothing_of(again).with_source("release", choice.source).noted(choice.note,
+                                                                          choice.warning)
+    return with_smoothing(again, fit), choice.sd
 
 
 def _smooth_again(log: pd.DataFrame, est: pd.DataFrame, options: ReconstructOptions,
@@ -649,18 +640,26 @@ def _smooth_again(log: pd.DataFrame, est: pd.DataFrame, options: ReconstructOpti
     given, and what the checking smoothing ``est`` found standing in for a new search:
     its trigger (the same detection on the same log; its source and sd are kept) and its
     noise (``smooth(tuned=…)``; local noise refits its scale)."""
-    found = est.attrs["events"]
+    before = smoothing_of(est)
     again = smooth(log, model=options.model, q=q, r=r,
-                   events={"trigger": found.get("trigger"), **smooth_events,
+                   events={"trigger": before.events.get("trigger"), **smooth_events,
                            "release": release},
-                   settings=smoother_settings(options), tuned=est.attrs["noise"])
+                   settings=smoother_settings(options), tuned=before.noise)
+    fit = smoothing_of(again)
+    kept = {}
     for key in ("event_sources", "event_sd"):
-        if "trigger" in est.attrs[key]:
-            again.attrs[key]["trigger"] = est.attrs[key]["trigger"]
-        else:
-            again.attrs[key].pop("trigger", None)
-    again.attrs["event_sources"]["release"] = est.attrs["event_sources"].get("release")
-    return again
+        new = {k: v for k, v in getattr(fit, key).items() if k != "trigger"}
+        if "trigger" in getattr(before, key):
+            new["trigger"] = getattr(before, key)["trigger"]
+        kept[key] = new
+    fit = fit.replace(**kept).with_source("release", before.event_sources.get("release"))
+    return with_smoothing(again, fit)
+
+
+def _source(log: pd.DataFrame) -> str:
+    """The log's file as ``read_log`` was given it, else ``"log"``."""
+    info = read_log_info(log)
+    return "log" if info is None else info.source
 
 
 def _log_frame(path_or_log, fps, columns, points, read_options) -> pd.DataFrame:
@@ -719,12 +718,12 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     DataFrame with the log's rows: ``t`` (s, the log's time), ``t_shot`` (s after the
     detected trigger), ``phase`` (0 at rest, 1 trough, 2 sling, 3 released), the angles,
     rates and accelerations, every column of :func:`trebuchet.model.loads.loads`, and
-    ``X_sd`` for each of them. ``attrs``: ``events`` (trigger, lift_off, release; log
-    time, s, or None), ``event_sd`` (s), ``event_sources``, ``noise`` (per angle: ``q``,
-    ``r_sd`` rad, …), ``form``, ``trough``, ``fps``, ``advisories`` (list of dicts:
-    quantity, peak, worst_sd, rows, fps_needed, noise_needed_deg, message), ``validity``
-    (sentences), ``notes``, and the log's ``source``, ``format``, ``repairs``,
-    ``columns``.
+    ``X_sd`` for each of them. ``attrs["reconstruction"]``: a
+    :class:`~trebuchet.ingest.reconstruction.Reconstruction` (events with their sd and
+    sources, the noise per angle, form, trough, fps, advisories, validity findings,
+    notes); ``attrs["events"]``: the events as a plain dict (trigger, lift_off, release;
+    log time, s, or None); ``attrs["log"]``: the log's
+    :class:`~trebuchet.ingest.logs.result.ReadLog` when it was read from a file.
 
     Raises
     ------
@@ -747,7 +746,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                     "angle_unit": angle_unit, "individual": individual,
                     "calibration": calibration}
     log = _log_frame(path_or_log, fps, columns, points, read_options)
-    source = str(log.attrs.get("source", "log"))
+    source = _source(log)
     swing = scene_check(log, scene) if read_log_info(log) is not None else None
     calibrated = calibrated_log(log, scene) if options.image_calibration == "engine" else None
     if calibrated is not None:
@@ -778,11 +777,12 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                  settings=checking_settings(settings) if check else settings)
     release_sd = None
     if track_end is not None:
-        leaves = log.attrs.get("leaves_sling")
-        seen_leaving = leaves is not None and leaves["t"] == track_end[0]
-        est.attrs["event_sources"]["release"] = (
-            "the tracked stone leaves its sling's circle" if seen_leaving
-            else "end of the sling track")
+        info = read_log_info(log)
+        leaves = None if info is None else info.leaves_sling
+        seen_leaving = leaves is not None and leaves[0] == track_end[0]
+        est = with_smoothing(est, smoothing_of(est).with_source(
+            "release", "the tracked stone leaves its sling's circle" if seen_leaving
+            else "end of the sling track"))
         release_sd = track_end[1]
         if confirm and not seen_leaving:  # a stone seen in flight was released; a track
             # that just ends may have been lost
@@ -792,27 +792,26 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         est, release_sd = _release_by_the_equations(log, angles_log, est, scene, options,
                                                     smooth_events, q, r)
     elif unchecked:
-        est.attrs["notes"] = [*est.attrs.get("notes", []),
-                              "the release was not checked against the engine's equations "
-                              f"({' and '.join(untracked)} not tracked); it comes from the "
-                              "jump search alone"]
+        est = with_smoothing(est, smoothing_of(est).noted(
+            "the release was not checked against the engine's equations "
+            f"({' and '.join(untracked)} not tracked); it comes from the jump search alone"))
     if swing is not None and swing.note:
-        est.attrs["notes"] = [*est.attrs.get("notes", []), swing.note]
+        est = with_smoothing(est, smoothing_of(est).noted(swing.note))
     if calibrated is not None:
         est = widened_by_calibration(est, calibrated.common_sd)
-        est.attrs["notes"] = [*est.attrs.get("notes", []), *calibrated.notes]
+        est = with_smoothing(est, smoothing_of(est).noted(*calibrated.notes))
     info = read_log_info(log)
     lines = info.lines if info is not None and info.lines is not None \
         and len(info.lines) == len(est) else None
     result = loads_from_smoothed(est, scene, events=given, options=options, lines=lines,
                                  release_sd=release_sd)
-    for key in ("source", "format", "repairs", "columns"):
-        if key in log.attrs:
-            result.attrs[key] = log.attrs[key]
+    if info is not None:
+        result.attrs["log"] = info
     name = Path(source).name
-    warn_findings(result.attrs["validity"], name)
-    advice = result.attrs["advisories"]
+    done = reconstruction_of(result)
+    warn_findings(list(done.validity), name)
+    advice = done.advisories
     if advice:
-        warnings.warn(f"{name}: " + "; ".join(a["message"] for a in advice),
+        warnings.warn(f"{name}: " + "; ".join(a.message for a in advice),
                       ModelValidityWarning, stacklevel=2)
     return result

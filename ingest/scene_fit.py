@@ -1,7 +1,7 @@
 """Do the measured angles fit the scene's geometry and the model's assumptions?
 
 Checks on the reconstructed rows, each a :class:`~trebuchet.errors.ModelValidityWarning`
-(also listed in ``attrs["validity"]``) that names the rows (0-based positions in the log)
+(also listed in ``Reconstruction.validity``) that names the rows (0-based positions in the log)
 and their times (s, the log's time):
 
 - in the trough (phase I, and at rest for a trough scene) the projectile must lie on the

@@ -16,6 +16,9 @@ from trebuchet.ingest.calibrated_angles import (
     widened_by_calibration,
 )
 from trebuchet.ingest.geometry.camera import camera_from_pose
+from trebuchet.ingest.logs.result import ReadLog
+from trebuchet.ingest.reconstruction import reconstruction_of
+from trebuchet.ingest.smoothing.result import Smoothing, smoothing_of, with_smoothing
 from trebuchet.ingest.synthetic.filmed_points import film, simulated_plane_track
 
 SIZE = (1920, 1080)
@@ -30,8 +33,8 @@ def _point_log(track, pts):
     phi -= 2 * np.pi * np.round((phi[0] + np.pi) / (2 * np.pi))
     log = pd.DataFrame({"t": track.t, "theta": direction("pivot", "spigot"),
                         "psi": direction("hinge", "counterweight"), "phi": phi})
-    log.attrs["points"] = {"t": list(track.t)} | {
-        f"{r}_{c}": list(pts[r][:, j]) for r in pts for j, c in enumerate("xy")}
+    log.attrs["log"] = ReadLog(source="tilted.csv", format="deeplabcut", points={
+        "t": track.t} | {f"{r}_{c}": pts[r][:, j] for r in pts for j, c in enumerate("xy")})
     return log
 
 
@@ -84,11 +87,12 @@ def test_points_in_metres_are_fitted_in_pseudo_pixels(tilted):
 def test_the_calibration_widens_the_angle_bands_in_quadrature():
     n = 5
     est = pd.DataFrame({"theta": np.zeros(n), "theta_sd": np.full(n, 3e-3)})
-    est.attrs["cov"] = {"theta": np.tile(np.diag([9e-6, 1.0, 1.0]), (n, 1, 1))}
+    with_smoothing(est, Smoothing(events={}, cov={
+        "theta": np.tile(np.diag([9e-6, 1.0, 1.0]), (n, 1, 1))}))
     out = widened_by_calibration(est, {"theta": np.full(n, 4e-3)})
     assert np.allclose(out["theta_sd"], 5e-3)
-    assert np.allclose(out.attrs["cov"]["theta"][:, 0, 0], 25e-6)
-    assert np.allclose(est.attrs["cov"]["theta"][:, 0, 0], 9e-6)  # the input is untouched
+    assert np.allclose(smoothing_of(out).cov["theta"][:, 0, 0], 25e-6)
+    assert np.allclose(smoothing_of(est).cov["theta"][:, 0, 0], 9e-6)  # input untouched
 
 
 def test_reconstruct_takes_the_calibrated_angles_when_asked(horsdal, tilted):
@@ -101,8 +105,8 @@ def test_reconstruct_takes_the_calibrated_angles_when_asked(horsdal, tilted):
         warnings.simplefilter("ignore")
         plain = reconstruct(log, horsdal)
         fitted = reconstruct(log, horsdal, options=ReconstructOptions(image_calibration="engine"))
-    assert any("calibrated by the engine" in n for n in fitted.attrs["notes"])
-    assert not any("calibrated by the engine" in n for n in plain.attrs["notes"])
+    assert any("calibrated by the engine" in n for n in reconstruction_of(fitted).notes)
+    assert not any("calibrated by the engine" in n for n in reconstruction_of(plain).notes)
     ok = np.isfinite(fitted["theta"]) & np.isfinite(plain["theta"])
     t = log["t"].to_numpy()[ok]
     truth = np.interp(t, track.t, track.theta)

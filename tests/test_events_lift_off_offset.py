@@ -11,6 +11,7 @@ import pytest
 
 from trebuchet.ingest.events.lift_off import offset_widened_sd, rest_offset
 from trebuchet.ingest.reconstruct import reconstruct
+from trebuchet.ingest.reconstruction import reconstruction_of
 from trebuchet.ingest.synthetic.simulated_log import simulated_log
 
 FPS = 240.0
@@ -20,7 +21,7 @@ def _lift_off(log, scene):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = reconstruct(log, scene)
-    return res.attrs["events"]["lift_off"], res.attrs["event_sd"]["lift_off"]
+    return res.attrs["events"]["lift_off"], reconstruction_of(res).event_sd["lift_off"]
 
 
 @pytest.fixture(scope="module")

@@ -160,7 +160,7 @@ def test_low_likelihood_gaps_are_reported(exports) -> None:
     folder, truths = exports
     truth = truths["dlc_single.csv"]
     df = _read(folder, truth, Case("dlc_single.csv", "report"))
-    assert any("likelihood" in note for note in df.attrs["repairs"])
+    assert any("likelihood" in note for note in df.attrs["log"].repairs)
 
 
 @pytest.mark.parametrize("name", ["phone_upconverted_dlc.csv", "phone_upconverted_generic.csv"])
@@ -169,7 +169,7 @@ def test_upconverted_rate_is_noted(exports, name: str) -> None:
     folder, truths = exports
     truth = truths[name]
     df = _read(folder, truth, Case(name, "note"))
-    assert any("60" in note and "repeat" in note for note in df.attrs["repairs"])
+    assert any("60" in note and "repeat" in note for note in df.attrs["log"].repairs)
 
 
 # ---------------------------------------------------------------- the readers, one by one

@@ -54,13 +54,13 @@ def test_q_is_low_in_the_trough_and_high_in_the_swing(paper_240):
     swing = sling[int(0.8 * sling.size):]
     trough = np.flatnonzero(phase == 1)
     for name in ("theta", "psi"):
-        q = local.attrs["noise"][name]["q_frames"]
+        q = local.attrs["smoothing"].noise[name]["q_frames"]
         assert q.shape == t.shape and np.all(q > 0)
         assert np.median(q[swing]) > 5 * np.median(q[trough]), name
-        assert local.attrs["noise"][name]["pieces"] == []
+        assert local.attrs["smoothing"].noise[name]["pieces"] == []
         # one q: the same at every frame, the q reported
-        q_one = one.attrs["noise"][name]["q_frames"]
-        np.testing.assert_allclose(q_one, one.attrs["noise"][name]["q"], rtol=1e-12)
+        q_one = one.attrs["smoothing"].noise[name]["q_frames"]
+        np.testing.assert_allclose(q_one, one.attrs["smoothing"].noise[name]["q"], rtol=1e-12)
 
 
 def test_local_noise_narrows_the_trough_and_keeps_the_truth(paper_240, horsdal):
@@ -295,8 +295,8 @@ def test_sling_band_at_its_track_end_is_wider_than_its_own_first_pass_gives(pape
                      settings=SmoothSettings(local_end_common=0.0))
     last = np.flatnonzero(np.isfinite(log["phi"].to_numpy()))[-1]
     end = np.arange(last - 9, last + 1)
-    q_common = local.attrs["noise"]["phi"]["q_frames"][end]
-    q_own = own.attrs["noise"]["phi"]["q_frames"][end]
+    q_common = local.attrs["smoothing"].noise["phi"]["q_frames"][end]
+    q_own = own.attrs["smoothing"].noise["phi"]["q_frames"][end]
     # the local-linear fit carries the sling's own falling jerk down to the floor at the end
     assert np.all(q_common >= q_own) and q_common[-1] > 10 * q_own[-1]
     z = {key: np.max(np.abs((est["phi_d"] - truth["phi_d"]).to_numpy()[end]
@@ -360,7 +360,7 @@ def test_calibrated_band_shrinks_only_where_the_data_show_less_jerk_than_the_mod
     settings = SmoothSettings(band_alpha_from=alpha_from)
     cal = smooth(log, events=events, q=1e3, r=noise, settings=settings)
     post = smooth(log, events=events, q=1e3, r=noise, settings=posterior)
-    scale = cal.attrs["noise"]["theta"]["band_scale"]
+    scale = cal.attrs["smoothing"].noise["theta"]["band_scale"]
     assert np.median(scale) < 0.2 and scale.max() <= 1.0
     ratio = (cal["theta_dd_sd"] / post["theta_dd_sd"]).to_numpy()
     assert ratio.max() <= 1.0 + 1e-9 and np.median(ratio) < 0.7
@@ -369,7 +369,7 @@ def test_calibrated_band_shrinks_only_where_the_data_show_less_jerk_than_the_mod
     log = pd.DataFrame({"t": t, "theta": truth[:, 0] + rng.normal(0.0, noise, t.size),
                         "psi": np.nan, "phi": np.nan})
     cal = smooth(log, events=events, q=30.0, r=noise, settings=settings)
-    assert np.median(cal.attrs["noise"]["theta"]["band_scale"]) > 0.6
+    assert np.median(cal.attrs["smoothing"].noise["theta"]["band_scale"]) > 0.6
     assert np.mean(np.abs(cal["theta_dd"] - truth[:, 2]) <= 2 * cal["theta_dd_sd"]) > 0.85
 
 

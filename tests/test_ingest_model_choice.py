@@ -64,14 +64,14 @@ def test_criterion_does_not_depend_on_the_width_of_the_jump_priors(paper_240):
     narrow = _run(log, events, "cj")
     wide = _run(log, events, "cj", jerk_kick_time=0.005)
     for angle in ("theta", "psi"):
-        a, b = narrow.attrs["noise"][angle], wide.attrs["noise"][angle]
+        a, b = narrow.attrs["smoothing"].noise[angle], wide.attrs["smoothing"].noise[angle]
         assert a["loglik"] - b["loglik"] > 4.0
         assert criterion(a) == pytest.approx(criterion(b), abs=0.1)
         assert 3.5 < b["jump_count"] <= 4.0  # acceleration and jerk jump at both events
     wide_acc = _run(log, events, "ca", kick_scale=500.0)
     base = _run(log, events, "ca")
     for angle in ("theta", "psi"):
-        a, b = base.attrs["noise"][angle], wide_acc.attrs["noise"][angle]
+        a, b = base.attrs["smoothing"].noise[angle], wide_acc.attrs["smoothing"].noise[angle]
         assert a["loglik"] - b["loglik"] > 4.0
         assert criterion(a) == pytest.approx(criterion(b), abs=0.1)
 
@@ -80,20 +80,21 @@ def test_select_returns_the_chosen_models_smoothing(paper_240):
     log, events = paper_240
     sel = _run(log, events, "select")
     ca, cj = _run(log, events, "ca"), _run(log, events, "cj")
-    assert sel.attrs["model"] == "select"
+    assert sel.attrs["smoothing"].model == "select"
     for angle in ("theta", "psi", "phi"):
-        c_ca, c_cj = criterion(ca.attrs["noise"][angle]), criterion(cj.attrs["noise"][angle])
+        c_ca = criterion(ca.attrs["smoothing"].noise[angle])
+        c_cj = criterion(cj.attrs["smoothing"].noise[angle])
         chosen = cj if c_cj > c_ca else ca
-        w = sel.attrs["model_weights"][angle]
+        w = sel.attrs["smoothing"].model_weights[angle]
         assert w["cj" if chosen is cj else "ca"] == 1.0
-        assert sel.attrs["noise"][angle]["model"] == ("cj" if chosen is cj else "ca")
+        assert sel.attrs["smoothing"].noise[angle]["model"] == ("cj" if chosen is cj else "ca")
         for col in (angle, angle + "_dd", angle + "_dd_sd"):
             np.testing.assert_allclose(sel[col], chosen[col], rtol=1e-12, equal_nan=True)
-        assert sel.attrs["cov"][angle].shape[1:] == (3, 3)
+        assert sel.attrs["smoothing"].cov[angle].shape[1:] == (3, 3)
     avg = _run(log, events, "average")
     # the mixture's band is at least the weighted mean of the models' variances
     for angle in ("theta", "psi"):
-        w = avg.attrs["model_weights"][angle]
+        w = avg.attrs["smoothing"].model_weights[angle]
         inner = w["ca"] * ca[angle + "_dd_sd"] ** 2 + w["cj"] * cj[angle + "_dd_sd"] ** 2
         assert np.all(avg[angle + "_dd_sd"] ** 2 >= inner * (1 - 1e-9))
 

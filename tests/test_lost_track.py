@@ -53,8 +53,8 @@ def test_a_sling_track_lost_30_frames_early_is_not_the_release(horsdal, lost_120
     res = _quiet(reconstruct, log, horsdal)
     frame = 1 / 120
     assert abs(res.attrs["events"]["release"] - _release_in_log_time(truth)) < frame
-    assert "lost" in res.attrs["event_sources"]["release"]
-    assert any("not released" in n for n in res.attrs["notes"])
+    assert "lost" in res.attrs["reconstruction"].event_sources["release"]
+    assert any("not released" in n for n in res.attrs["reconstruction"].notes)
     # phase II keeps its sling loads: today's track-end release set them to 0 (RMS ~44 %)
     assert _sling_rms(res, truth) < 0.05
     blind = _quiet(reconstruct, log, horsdal, options=ReconstructOptions(release_model=None))
@@ -67,9 +67,9 @@ def test_a_sling_track_that_ends_at_the_release_stays_the_release(horsdal, fps, 
     tracks."""
     log, truth = simulated_log(horsdal, fps, noise, seed=seed)
     res = _quiet(reconstruct, log, horsdal)
-    assert res.attrs["event_sources"]["release"] == "end of the sling track"
+    assert res.attrs["reconstruction"].event_sources["release"] == "end of the sling track"
     assert abs(res.attrs["events"]["release"] - _release_in_log_time(truth)) < 1 / fps
-    assert not any("not released" in n for n in res.attrs["notes"])
+    assert not any("not released" in n for n in res.attrs["reconstruction"].notes)
 
 
 def test_the_continued_sling_follows_the_true_angle_with_an_honest_sd(horsdal, lost_120):
@@ -82,7 +82,7 @@ def test_the_continued_sling_follows_the_true_angle_with_an_honest_sd(horsdal, l
     phi = est["phi"].to_numpy()
     last = int(np.flatnonzero(np.isfinite(phi))[-1])
     cont = continued_sling({c: est[c].to_numpy() for c in est.columns}, horsdal, last,
-                           est.attrs["cov"]["phi"][last][:3, :3])
+                           est.attrs["smoothing"].cov["phi"][last][:3, :3])
     before = truth["phase"].to_numpy()[cont.rows] == 2
     assert before.sum() >= 25
     err = cont.phi[before] - truth["phi"].to_numpy()[cont.rows][before]

@@ -61,9 +61,9 @@ def test_generic_with_units_in_header_converts_ms_and_degrees(tmp_path):
     np.testing.assert_allclose(df["theta"], THETA, rtol=0, atol=1e-12)
     np.testing.assert_allclose(df["psi"], PSI, rtol=0, atol=1e-12)
     np.testing.assert_allclose(df["phi"], PHI, rtol=0, atol=1e-12)
-    assert df.attrs["format"] == "generic"
-    assert df.attrs["source"] == str(p)
-    assert df.attrs["repairs"] == []
+    assert df.attrs["log"].format == "generic"
+    assert df.attrs["log"].source == str(p)
+    assert df.attrs["log"].repairs == ()
 
 
 def test_generic_angle_without_unit_is_radians_and_time_without_unit_is_seconds(tmp_path):
@@ -81,8 +81,8 @@ def test_generic_frame_column_needs_fps_and_gives_frame_over_fps(tmp_path):
     p.write_text("frame;theta;psi;phi\n" + "\n".join(rows) + "\n")
     df = read_log(p, fps=120)
     np.testing.assert_allclose(df["t"], (K + 100) / 120.0, atol=1e-15)
-    assert df.attrs["fps"] == 120.0
-    assert df.attrs["frame"] == [int(k) + 100 for k in K]
+    assert df.attrs["log"].fps == 120.0
+    assert list(df.attrs["log"].frame) == [int(k) + 100 for k in K]
 
 
 def test_generic_decimal_comma_with_semicolons_and_greek_names(tmp_path):
@@ -111,7 +111,7 @@ def test_times_rounded_to_a_few_decimals_go_back_on_the_frame_grid_with_a_note(t
     np.testing.assert_allclose(step, step[0], rtol=1e-9)  # one frame period
     assert abs(step[0] * 120.0 - 1.0) < 1e-4  # 14 frames fix the rate to 0.01 %
     assert np.abs(df["t"] - (0.8 + K / 120.0)).max() < 0.5e-4
-    assert len(df.attrs["repairs"]) == 1
+    assert len(df.attrs["log"].repairs) == 1
 
 
 def test_rounded_times_go_on_the_exact_grid_of_a_given_fps(tmp_path):
@@ -144,7 +144,7 @@ def test_times_on_an_exact_grid_are_left_alone_without_a_note(tmp_path):
         warnings.simplefilter("error")
         df = read_log(p)
     assert df["t"].tolist() == [float(f"{k / 100.0:.2f}") for k in K]
-    assert df.attrs["repairs"] == []
+    assert df.attrs["log"].repairs == ()
 
 
 def test_columns_maps_other_names_and_leaves_unmapped_angles_to_their_names(tmp_path):
@@ -154,7 +154,7 @@ def test_columns_maps_other_names_and_leaves_unmapped_angles_to_their_names(tmp_
     df = read_log(p, columns={"beam": "theta", "sling (rad)": "phi"})
     np.testing.assert_allclose(df["theta"], THETA, atol=1e-15)
     np.testing.assert_allclose(df["phi"], PHI, atol=1e-15)
-    assert df.attrs["columns"] == {"theta": "beam (rad)", "psi": "psi", "phi": "sling (rad)"}
+    assert df.attrs["log"].columns == {"theta": "beam (rad)", "psi": "psi", "phi": "sling (rad)"}
 
 
 def test_write_log_round_trip_keeps_values_and_gaps(tmp_path):
@@ -173,8 +173,8 @@ def test_tracker_multi_tab_with_track_names_mapped_to_angles():
     df = read_log(
         LOGS / "tracker_multi_tab.txt", columns={"beam": "theta", "arm": "psi", "sling": "phi"}
     )
-    assert df.attrs["format"] == "tracker"
-    assert df.attrs["columns"] == {"theta": "beam/θ", "psi": "arm/θ", "phi": "sling/θ"}
+    assert df.attrs["log"].format == "tracker"
+    assert df.attrs["log"].columns == {"theta": "beam/θ", "psi": "arm/θ", "phi": "sling/θ"}
     # its times, written to 0.1 ms, go back on a fitted frame grid (a repair)
     np.testing.assert_allclose(df["t"], K / FPS, atol=0.5e-4)
     np.testing.assert_allclose(np.diff(df["t"]), 1.0 / FPS, rtol=1e-4)
@@ -195,7 +195,7 @@ def test_tracker_track_column_name_also_works_as_key():
 def test_tracker_multi_semicolon_decimal_comma_with_tracks_named_after_the_angles():
     with pytest.warns(TrebuchetDataWarning) as record:
         df = read_log(LOGS / "tracker_multi_semicolon.csv")
-    assert df.attrs["format"] == "tracker"
+    assert df.attrs["log"].format == "tracker"
     # Tracker wrote a time-only row for every skipped frame (step size 2): dropped, reported
     assert len(df) == 14
     np.testing.assert_allclose(df["t"], 2 * K / FPS, rtol=1e-6)
@@ -230,7 +230,7 @@ def test_tracker_point_masses_give_angles_with_points(tmp_path):
     np.testing.assert_allclose(df["theta"], THETA, atol=1e-12)
     np.testing.assert_allclose(df["psi"], PSI, atol=1e-12)
     np.testing.assert_allclose(df["phi"], PHI, atol=1e-12)
-    assert df.attrs["point_names"]["hinge"] == "C"
+    assert df.attrs["log"].point_names["hinge"] == "C"
 
 
 # ------------------------------------------------------------------------------ Kinovea
@@ -240,7 +240,7 @@ def test_kinovea_quoted_semicolon_file_with_fps_gives_exact_frame_times():
     with pytest.warns(TrebuchetDataWarning) as record:
         df = read_log(LOGS / "kinovea_semicolon.csv", fps=FPS, points=KINOVEA_POINTS)
     assert any("rounded to 1 ms" in str(w.message) for w in record)
-    assert df.attrs["format"] == "kinovea"
+    assert df.attrs["log"].format == "kinovea"
     np.testing.assert_allclose(df["t"], K / FPS, rtol=0, atol=1e-15)
     # coordinates written with 4 decimals (0.1 mm) on arms of 2.45 m and more
     np.testing.assert_allclose(df["theta"], THETA, atol=1e-4)
@@ -251,10 +251,10 @@ def test_kinovea_quoted_semicolon_file_with_fps_gives_exact_frame_times():
     np.testing.assert_allclose(df["phi"][ok], PHI[ok], atol=1e-4)
     # the stone's empty cells on frame 4 (file row 6) are a gap in phi only
     assert np.isnan(df["phi"].iloc[4]) and np.isfinite(df["psi"].iloc[4])
-    pts = pd.DataFrame(df.attrs["points"])
+    pts = pd.DataFrame(dict(df.attrs["log"].points))
     assert list(pts.columns[:1]) == ["t"] and len(pts) == len(df)
     assert pts["spigot_y"].iloc[0] == pytest.approx(0.0360)
-    assert df.attrs["point_names"]["counterweight"] == "Weight/centre"
+    assert df.attrs["log"].point_names["counterweight"] == "Weight/centre"
 
 
 def test_kinovea_without_fps_fits_a_frame_grid_close_to_the_true_rate():
@@ -264,7 +264,7 @@ def test_kinovea_without_fps_fits_a_frame_grid_close_to_the_true_rate():
     assert np.ptp(dt) < 1e-12
     assert dt[0] == pytest.approx(1 / FPS, rel=0.02)
     assert "fps" not in df.attrs
-    assert any("fitted frame grid" in r for r in df.attrs["repairs"])
+    assert any("fitted frame grid" in r for r in df.attrs["log"].repairs)
 
 
 def test_kinovea_time_without_unit_is_read_in_the_unit_its_steps_tell(tmp_path):
@@ -284,7 +284,7 @@ def test_kinovea_time_without_unit_is_read_in_the_unit_its_steps_tell(tmp_path):
 def test_deeplabcut_three_header_rows_low_likelihood_as_gaps():
     with pytest.warns(TrebuchetDataWarning) as record:
         df = read_log(LOGS / "deeplabcut.csv", fps=FPS, min_likelihood=0.9)
-    assert df.attrs["format"] == "deeplabcut"
+    assert df.attrs["log"].format == "deeplabcut"
     np.testing.assert_allclose(df["t"], K / FPS, atol=1e-15)
     # pixels with 4 decimals, 100 px per m, y flipped from image (down) to up
     ok = np.isfinite(df["theta"])
@@ -293,8 +293,8 @@ def test_deeplabcut_three_header_rows_low_likelihood_as_gaps():
     # projectile on frame 5 (likelihood 0.42) and spigot on frame 9 (0.65) are gaps
     assert np.isnan(df["phi"].iloc[5]) and np.isnan(df["phi"].iloc[9])
     assert np.isnan(df["theta"].iloc[9]) and np.isfinite(df["theta"].iloc[5])
-    assert df.attrs["frame"] == list(range(14))
-    pts = pd.DataFrame(df.attrs["points"])
+    assert list(df.attrs["log"].frame) == list(range(14))
+    pts = pd.DataFrame(dict(df.attrs["log"].points))
     assert pts["pivot_y"].iloc[0] == pytest.approx(-400.0)  # image y 400 px, flipped
     messages = " ".join(str(w.message) for w in record)
     assert "'projectile' with likelihood below 0.9" in messages and "row 9" in messages
@@ -377,7 +377,7 @@ def test_points_round_trip_through_a_kinovea_file_with_decimal_comma(tmp_path):
     p.write_text("\r\n".join(lines) + "\r\n")
     df = quiet_read(p)  # points named after the parts: no mapping needed
     # times on a 4 ms grid are not touched; their unit (none written) is inferred and said
-    assert df.attrs["repairs"] == [df.attrs["log"].decisions[0]]
+    assert df.attrs["log"].repairs == (df.attrs["log"].decisions[0],)
     assert df.attrs["log"].decisions[0].startswith("time unit of 'Time': ms (inferred: steps of 4")
     np.testing.assert_allclose(df["t"], np.arange(N) * 0.004, atol=1e-15)
     for a in ("theta", "psi", "phi"):
@@ -400,7 +400,7 @@ def test_attrs_hold_plain_values_so_logs_can_be_concatenated():
     df = quiet_read(LOGS / "deeplabcut.csv", fps=FPS)
     both = pd.concat([df, df.copy()])  # pandas compares attrs: arrays there would raise
     assert len(both) == 2 * len(df)
-    assert both.attrs["format"] == "deeplabcut"
+    assert both.attrs["log"].format == "deeplabcut"
 
 
 def test_tracker_space_delimited_with_frame_numbers_and_a_utf8_bom(tmp_path):
@@ -410,6 +410,6 @@ def test_tracker_space_delimited_with_frame_numbers_and_a_utf8_bom(tmp_path):
     p = tmp_path / "space.txt"
     p.write_bytes(b"\xef\xbb\xbf" + ("\n".join(lines) + "\n").encode())
     df = read_log(p, fps=FPS)
-    assert df.attrs["format"] == "tracker"
+    assert df.attrs["log"].format == "tracker"
     np.testing.assert_allclose(df["t"], (K + 7) / FPS, atol=1e-15)
     np.testing.assert_allclose(df["psi"], PSI, atol=1e-12)

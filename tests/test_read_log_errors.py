@@ -311,7 +311,7 @@ def test_a_column_that_is_no_angle_is_reported_not_dropped_silently(tmp_path):
     path = write(tmp_path, HEADER + ",note\n" + "\n".join(rows) + "\n")
     with pytest.warns(TrebuchetDataWarning, match="'note' not used"):
         log = read_log(path)
-    assert any("'note' not used" in r for r in log.attrs["repairs"])
+    assert any("'note' not used" in r for r in log.attrs["log"].repairs)
 
 
 def test_an_absurd_value_under_a_stated_unit_names_its_row_not_the_header(tmp_path):

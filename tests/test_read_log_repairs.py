@@ -1,4 +1,4 @@
-"""read_log repairs: each made, reported in attrs["repairs"] and warned as TrebuchetDataWarning."""
+"""read_log repairs: each made, listed in attrs["log"].repairs, warned as TrebuchetDataWarning."""
 
 from __future__ import annotations
 
@@ -43,7 +43,7 @@ def test_a_clean_log_warns_nothing(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         df = read_log(p)
-    assert df.attrs["repairs"] == []
+    assert df.attrs["log"].repairs == ()
 
 
 def test_every_repair_is_both_listed_and_warned(tmp_path):
@@ -52,8 +52,8 @@ def test_every_repair_is_both_listed_and_warned(tmp_path):
     b[7] = np.nan  # a gap
     p = write(tmp_path, t, a, b, c)
     df, messages = read_warned(p)
-    assert len(df.attrs["repairs"]) == 2
-    assert messages == [f"shot.csv: {r}" for r in df.attrs["repairs"]]
+    assert len(df.attrs["log"].repairs) == 2
+    assert messages == [f"shot.csv: {r}" for r in df.attrs["log"].repairs]
 
 
 def test_unwrap_removes_the_jump_at_180_degrees(tmp_path):
@@ -147,7 +147,7 @@ def test_frame_numbers_report_gaps_exactly(tmp_path):
     p = tmp_path / "frames.csv"
     p.write_text("\n".join(lines) + "\n")
     df, messages = read_warned(p, fps=50)
-    assert df.attrs["frame"] == frames
+    assert list(df.attrs["log"].frame) == list(frames)
     assert any("5 frames are absent: 5 after row 11" in m for m in messages)
 
 

@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.ingest.logs.result import ReadLog
 from trebuchet.ingest.reconstruct import (
     ReconstructOptions,
     checking_settings,
@@ -84,7 +85,7 @@ def test_columns_time_and_phases(paper_shot, horsdal):
 
 def test_events_in_log_time_match_the_simulation(paper_shot):
     _, truth, _, res = paper_shot
-    found, sd = res["projected"].attrs["events"], res["projected"].attrs["event_sd"]
+    found, sd = res["projected"].attrs["events"], res["projected"].attrs["reconstruction"].event_sd
     true = truth.attrs["events"]
     assert abs(found["trigger"] - true["trigger"]) * FPS < 3
     assert abs(found["release"] - true["release"]) * FPS < 2
@@ -126,8 +127,9 @@ def test_events_given_override_detection(horsdal):
     true = truth.attrs["events"]
     r = _quiet(reconstruct, log, horsdal, events=true)
     assert r.attrs["events"] == {k: pytest.approx(v) for k, v in true.items()}
-    assert r.attrs["event_sources"]["lift_off"] == "given"
-    assert r.attrs["event_sd"]["trigger"] == 0.0 and r.attrs["event_sd"]["release"] == 0.0
+    done = r.attrs["reconstruction"]
+    assert done.event_sources["lift_off"] == "given"
+    assert done.event_sd["trigger"] == 0.0 and done.event_sd["release"] == 0.0
     t = r["t"].to_numpy()
     np.testing.assert_array_equal(r["phase"].to_numpy(), truth["phase"].to_numpy()[:len(t)])
     with pytest.raises(TrebuchetInputError, match="unknown event 'launch'"):
@@ -233,12 +235,12 @@ def test_small_engine_at_low_frame_rate_gets_an_advisory():
     log, _ = simulated_log(scene, 60, 1.0, seed=2)
     with pytest.warns(ModelValidityWarning, match="exceeds 10% of its peak"):
         r = reconstruct(log, scene)
-    adv = r.attrs["advisories"]
+    adv = r.attrs["reconstruction"].advisories
     assert adv
     for a in adv:
-        assert a["worst_sd"] > 0.1 * a["peak"]
-        assert a["fps_needed"] is None or a["fps_needed"] > 60
-        assert a["noise_needed_deg"] is None or a["noise_needed_deg"] < 1.0
+        assert a.worst_sd > 0.1 * a.peak
+        assert a.fps_needed is None or a.fps_needed > 60
+        assert a.noise_needed_deg is None or a.noise_needed_deg < 1.0
 
 
 def test_angles_off_the_trough_name_the_rows(horsdal):
@@ -249,7 +251,7 @@ def test_angles_off_the_trough_name_the_rows(horsdal):
     with pytest.warns(ModelValidityWarning, match=r"rows \d+.*below ground") as rec:
         r = reconstruct(bad, horsdal, events=truth.attrs["events"])
     assert any("in the trough" in str(w.message) for w in rec)
-    assert any("in the trough" in v for v in r.attrs["validity"])
+    assert any("in the trough" in v for v in r.attrs["reconstruction"].validity)
 
 
 def test_psi_beyond_its_range_names_the_rows(horsdal):
@@ -285,7 +287,7 @@ def test_a_clean_log_raises_no_validity_warning(horsdal):
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
         r = reconstruct(log, horsdal)
-    assert not r.attrs["validity"], r.attrs["validity"]
+    assert not r.attrs["reconstruction"].validity, r.attrs["reconstruction"].validity
     assert not any("through the beam" in str(w.message) or "in the trough" in str(w.message)
                    for w in rec)
 
@@ -300,17 +302,18 @@ def test_bad_arguments():
 def test_release_at_the_end_of_the_sling_track(horsdal):
     log, truth = simulated_log(horsdal, 60, 1.0, seed=3)
     r = _quiet(reconstruct, log, horsdal)
-    assert r.attrs["event_sources"]["release"] == "end of the sling track"
+    assert r.attrs["reconstruction"].event_sources["release"] == "end of the sling track"
     err = r.attrs["events"]["release"] - truth.attrs["events"]["release"]
     assert abs(err) <= 0.5 / 60
-    assert 0 < r.attrs["event_sd"]["release"] <= 1 / 60
+    assert 0 < r.attrs["reconstruction"].event_sd["release"] <= 1 / 60
 
 
 def test_presets_are_named_and_trade_order(horsdal):
     log, truth = simulated_log(horsdal, 120, 0.5, seed=3)
     fast = _quiet(reconstruct, log, horsdal, options=ReconstructOptions(preset="fast"))
     default = _quiet(reconstruct, log, horsdal)
-    assert fast.attrs["preset"] == "fast" and default.attrs["preset"] == "default"
+    assert fast.attrs["reconstruction"].preset == "fast"
+    assert default.attrs["reconstruction"].preset == "default"
     # the fast preset (coarse tuning, first-order bands) still meets the accuracy target
     assert np.isfinite(fast["F_R_abs_sd"].to_numpy()[truth["phase"].to_numpy() > 0]).all()
     assert _rms_rel(fast, truth, "F_R_abs") < 0.05
@@ -336,17 +339,17 @@ def test_a_second_smoothing_may_reuse_the_noise_search(horsdal):
     events = {"release": sling_track_end(log)[0]}
     earlier = _quiet(smooth, log, settings=checking_settings(SmoothSettings()))
     new = _quiet(smooth, log, events=events)
-    reused = _quiet(smooth, log, events=events, tuned=earlier.attrs["noise"])
+    reused = _quiet(smooth, log, events=events, tuned=earlier.attrs["smoothing"].noise)
     moving = truth["phase"].to_numpy() > 0
     for a in ("theta", "psi", "phi"):
-        ratio = reused.attrs["noise"][a]["q"] / new.attrs["noise"][a]["q"]
+        ratio = reused.attrs["smoothing"].noise[a]["q"] / new.attrs["smoothing"].noise[a]["q"]
         assert abs(np.log10(ratio)) < 0.25, (a, ratio)
         z = np.abs((reused[a + "_dd"] - new[a + "_dd"]) / new[a + "_dd_sd"]).to_numpy()[moving]
         z = z[np.isfinite(z)]  # phi ends with its track
         assert z.size > 100 and np.median(z) < 0.3 and np.max(z) < 1.0, (a, np.median(z), np.max(z))
-    q = {a: new.attrs["noise"][a]["q"] for a in ("theta", "psi", "phi")}
+    q = {a: new.attrs["smoothing"].noise[a]["q"] for a in ("theta", "psi", "phi")}
     given = _quiet(smooth, log, events=events, q=q)
-    ignored = _quiet(smooth, log, events=events, q=q, tuned=earlier.attrs["noise"])
+    ignored = _quiet(smooth, log, events=events, q=q, tuned=earlier.attrs["smoothing"].noise)
     np.testing.assert_array_equal(ignored["theta_dd"].to_numpy(), given["theta_dd"].to_numpy())
 
 
@@ -357,12 +360,13 @@ def test_a_release_inside_the_sling_tracks_last_interval_stands(horsdal):
     t = log["t"].to_numpy()
     last = int(np.flatnonzero(np.isfinite(log["phi"].to_numpy()))[-1])
     late = float(t[last] + 0.8 * (t[last + 1] - t[last]))
-    log.attrs["leaves_sling"] = {"t": late, "sd": 0.002}
+    log.attrs["log"] = ReadLog(source="shot.csv", format="deeplabcut",
+                               leaves_sling=(late, 0.002))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = reconstruct(log, horsdal)
     assert res.attrs["events"]["release"] == late
-    assert res.attrs["event_sd"]["release"] == 0.002
+    assert res.attrs["reconstruction"].event_sd["release"] == 0.002
     assert (res["phase"].to_numpy()[t > late] == 3).all()
 
 
@@ -378,4 +382,4 @@ def test_without_psi_the_release_check_is_skipped_and_a_note_says_so(horsdal):
         warnings.simplefilter("ignore")
         res = reconstruct(log, horsdal)
     assert any("not checked against the engine's equations (psi not tracked)" in n
-               for n in res.attrs["notes"])
+               for n in res.attrs["reconstruction"].notes)

@@ -59,8 +59,8 @@ def test_release_when_the_sling_track_goes_on(engine, kind, fps, noise, request)
     log, truth = continued_sling_log(scene, fps, noise, kind, seed=1, drop_fraction=0.02)
     res = _quiet(reconstruct, log, scene)
     err = _release_error_frames(res, truth, fps)
-    sd = res.attrs["event_sd"]["release"] * fps
-    assert abs(err) <= 2.0, (err, res.attrs["event_sources"]["release"])
+    sd = res.attrs["reconstruction"].event_sd["release"] * fps
+    assert abs(err) <= 2.0, (err, res.attrs["reconstruction"].event_sources["release"])
     assert abs(err) <= 3.0 * sd
     assert sd < 3.0
     assert abs(_peak_error(res, truth)) < 0.1
@@ -79,14 +79,15 @@ def test_the_model_free_release_misses_where_the_equations_find_it(backyard):
     res = _quiet(reconstruct, log, backyard)
     free_err = _release_error_frames(free, truth, fps)
     err = _release_error_frames(res, truth, fps)
-    assert res.attrs["event_sources"]["release"] == SOURCE
-    assert np.any(res.attrs["noise"]["theta"]["band_scale"] < 1.0)  # the full smoothing's
-    assert res.attrs["event_sources"]["trigger"] == free.attrs["event_sources"]["trigger"]
-    assert res.attrs["event_sd"]["trigger"] == free.attrs["event_sd"]["trigger"]
-    assert abs(err) <= 4.0 and abs(err) <= 3.0 * res.attrs["event_sd"]["release"] * fps
+    done, before = res.attrs["reconstruction"], free.attrs["reconstruction"]
+    assert done.event_sources["release"] == SOURCE
+    assert np.any(done.noise["theta"]["band_scale"] < 1.0)  # the full smoothing's
+    assert done.event_sources["trigger"] == before.event_sources["trigger"]
+    assert done.event_sd["trigger"] == before.event_sd["trigger"]
+    assert abs(err) <= 4.0 and abs(err) <= 3.0 * done.event_sd["release"] * fps
     assert abs(_peak_error(res, truth)) < 0.05
     if abs(free_err) > 10:  # the case the check is for: the note says how far apart
-        assert any("from the engine's equations" in n for n in res.attrs["notes"])
+        assert any("from the engine's equations" in n for n in res.attrs["reconstruction"].notes)
         assert abs(_peak_error(res, truth)) < abs(_peak_error(free, truth))
 
 
@@ -97,9 +98,9 @@ def test_a_sling_track_that_ends_at_the_release_is_unchanged(horsdal):
         warnings.filterwarnings("ignore", message=".*resol", category=ModelValidityWarning)
         res = _quiet(reconstruct, log, horsdal)
     off = _quiet(reconstruct, log, horsdal, options=ReconstructOptions(release_model=None))
-    assert res.attrs["event_sources"]["release"] == "end of the sling track"
+    assert res.attrs["reconstruction"].event_sources["release"] == "end of the sling track"
     assert res.attrs["events"] == off.attrs["events"]
-    assert res.attrs["event_sd"] == off.attrs["event_sd"]
+    assert res.attrs["reconstruction"].event_sd == off.attrs["reconstruction"].event_sd
     np.testing.assert_array_equal(res["F_S_abs"].to_numpy(), off["F_S_abs"].to_numpy())
 
 
@@ -115,12 +116,12 @@ def test_a_scene_a_little_off_warns_where_the_right_one_does_not(horsdal):
         res = reconstruct(log, heavy)
     doubts = [str(w.message) for w in caught if "a little off" in str(w.message)]
     assert len(doubts) == 1 and "mass m" in doubts[0] and "L4" in doubts[0]
-    assert any("a little off" in n for n in res.attrs["notes"])
+    assert any("a little off" in n for n in res.attrs["reconstruction"].notes)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         right = reconstruct(log, horsdal)
     assert not [w for w in caught if "a little off" in str(w.message)]
-    assert right.attrs["event_sources"]["release"] == SOURCE
+    assert right.attrs["reconstruction"].event_sources["release"] == SOURCE
 
 
 def test_scene_doubt():
@@ -138,9 +139,9 @@ def test_another_engine_than_the_scene_warns_and_keeps_the_smoothers_release(hor
     log, _ = continued_sling_log(backyard, 240, 0.5, "pendulum", seed=0)
     with pytest.warns(ModelValidityWarning, match="is the scene the engine filmed"):
         res = reconstruct(log, horsdal)
-    assert res.attrs["event_sources"]["release"] != SOURCE
+    assert res.attrs["reconstruction"].event_sources["release"] != SOURCE
     # the kept smoothing has the calibrated bands, not the checking smoothing's posterior
-    assert np.any(res.attrs["noise"]["theta"]["band_scale"] < 1.0)
+    assert np.any(res.attrs["reconstruction"].noise["theta"]["band_scale"] < 1.0)
 
 
 # ----------------------------------------------------------------------------- pieces
@@ -153,7 +154,7 @@ def test_model_release_on_the_smoothed_log_is_honest(backyard):
     for seed in range(3):
         log, truth = continued_sling_log(backyard, fps, 0.5, "stone", seed=seed)
         est = _quiet(smooth, log)
-        noise = {a: est.attrs["noise"][a]["r_sd"] for a in ("theta", "psi")}
+        noise = {a: est.attrs["smoothing"].noise[a]["r_sd"] for a in ("theta", "psi")}
         found = release_from_model({a: log[a].to_numpy() for a in ("theta", "psi")}, est,
                                    backyard, est.attrs["events"]["trigger"], noise)
         assert found.time is not None and found.misfit < 1.0 and found.chi2_dof < 1.5
@@ -263,7 +264,7 @@ def test_no_release_from_the_equations_without_a_sling_angle_or_a_release(horsda
     log, truth = continued_sling_log(horsdal, 120, 0.3, "pendulum", seed=0)
     no_sling = log.assign(phi=np.nan)
     res = _quiet(reconstruct, no_sling, horsdal)
-    assert res.attrs["event_sources"]["release"] != SOURCE
+    assert res.attrs["reconstruction"].event_sources["release"] != SOURCE
     cut = log[log["t"] < truth.attrs["events"]["release"] - 0.05].reset_index(drop=True)
     res = _quiet(reconstruct, cut, horsdal)
     assert res.attrs["events"]["release"] is None

@@ -25,6 +25,7 @@ from trebuchet.ingest.events.stone_flight import (
     stone_release,
 )
 from trebuchet.ingest.reconstruct import reconstruct
+from trebuchet.ingest.reconstruction import reconstruction_of
 
 FPS = 240.0
 PX_PER_M = 27.0
@@ -200,8 +201,8 @@ def test_reconstruct_finds_the_release_of_a_stone_tracked_in_flight(tmp_path, ho
         res = reconstruct(path, horsdal, fps=FPS)
     err = (res.attrs["events"]["release"] - release) * FPS
     assert abs(err) < 1.0, err
-    assert abs(err) <= 2.0 * res.attrs["event_sd"]["release"] * FPS
-    assert "stone" in res.attrs["event_sources"]["release"]
+    assert abs(err) <= 2.0 * reconstruction_of(res).event_sd["release"] * FPS
+    assert "stone" in reconstruction_of(res).event_sources["release"]
     assert not any(issubclass(w.category, ModelValidityWarning) and "disagree" in
                    str(w.message) for w in rec)
     phase = res["phase"].to_numpy()

@@ -111,7 +111,7 @@ def sample(request):
 
 def test_sample_reads_in_its_format_and_spans_rest_to_after_release(sample):
     name, log, true, release, (fmt, fps, _) = sample
-    assert log.attrs["format"] == fmt
+    assert log.attrs["log"].format == fmt
     t = log["t"].to_numpy()
     assert t[0] <= TRIGGER - 0.19  # rest before the trigger, in the video's own time
     assert t[-1] >= TRIGGER + release + 0.19

@@ -74,12 +74,12 @@ def test_points_of_a_stone_in_flight_give_no_sling_angle_after_the_release(tmp_p
     path, _, t, release = _dlc_with_stone_in_flight(tmp_path)
     with pytest.warns(TrebuchetDataWarning, match="leaves its sling's circle") as record:
         log = read_log(path, fps=120, points=ms.DLC_POINTS)
-    found = log.attrs["leaves_sling"]
-    assert 0 < found["sd"] < 2.0 / 120
-    assert abs(found["t"] - release) < 3.0 * found["sd"]
+    found_t, found_sd = log.attrs["log"].leaves_sling
+    assert 0 < found_sd < 2.0 / 120
+    assert abs(found_t - release) < 3.0 * found_sd
     phi = log["phi"].to_numpy()
     kept = np.isfinite(phi)
-    assert t[kept][-1] <= found["t"] < t[np.flatnonzero(kept)[-1] + 1]  # cut right there
+    assert t[kept][-1] <= found_t < t[np.flatnonzero(kept)[-1] + 1]  # cut right there
     assert np.isfinite(log["theta"]).all()  # nothing else is touched
     note = next(str(w.message) for w in record if "circle" in str(w.message))
     assert "values from that row on are left out" in note
@@ -91,6 +91,7 @@ def test_the_release_of_a_stone_tracked_in_flight_is_found_at_the_cut(tmp_path):
         warnings.simplefilter("ignore")
         res = reconstruct(path, scene, fps=120, points=ms.DLC_POINTS)
     found = res.attrs["events"]["release"]
-    sd = res.attrs["event_sd"]["release"]
+    sd = res.attrs["reconstruction"].event_sd["release"]
     assert abs(found - release) < 3.0 * sd < 6.0 / 120
-    assert res.attrs["event_sources"]["release"] == "the tracked stone leaves its sling's circle"
+    assert (res.attrs["reconstruction"].event_sources["release"]
+            == "the tracked stone leaves its sling's circle")

@@ -39,13 +39,13 @@ def test_columns_rows_and_attrs(shot240):
     for a in ANGLES:
         for suf in ("", "_d", "_dd"):
             assert a + suf in est and a + suf + "_sd" in est
-        assert est.attrs["cov"][a].shape == (len(log), 3, 3)
-        noise = est.attrs["noise"][a]
+        assert est.attrs["smoothing"].cov[a].shape == (len(log), 3, 3)
+        noise = est.attrs["smoothing"].noise[a]
         assert noise["q"] > 0 and noise["r_sd"] > 0
     assert set(est.attrs["events"]) >= {"trigger", "release"}
-    assert est.attrs["model"] == "ca"
-    assert np.isfinite(est.attrs["loglik"])
-    var = np.diagonal(est.attrs["cov"]["theta"], axis1=1, axis2=2)
+    assert est.attrs["smoothing"].model == "ca"
+    assert np.isfinite(est.attrs["smoothing"].loglik)
+    var = np.diagonal(est.attrs["smoothing"].cov["theta"], axis1=1, axis2=2)
     np.testing.assert_allclose(np.sqrt(var[:, 2]), est["theta_dd_sd"], rtol=1e-12)
 
 
@@ -77,7 +77,7 @@ def test_trigger_found_within_two_frames(fps, noise):
     log, _ = synthetic_log(fps, noise, seed=7, trigger=0.2137)
     est = smooth(log)
     assert abs(est.attrs["events"]["trigger"] - 0.2137) * fps <= 2.0
-    assert est.attrs["event_sources"]["trigger"] == "detected"
+    assert est.attrs["smoothing"].event_sources["trigger"] == "detected"
 
 
 def test_rest_before_trigger_is_exact(shot240):
@@ -91,7 +91,7 @@ def test_noise_sd_recovered(noise):
     log, _ = synthetic_log(120, noise, seed=11)
     est = smooth(log)
     for a in ANGLES:
-        ratio = est.attrs["noise"][a]["r_sd"] / np.deg2rad(noise)
+        ratio = est.attrs["smoothing"].noise[a]["r_sd"] / np.deg2rad(noise)
         assert 0.8 < ratio < 1.2, (a, ratio)
 
 
@@ -124,8 +124,9 @@ def test_sling_track_end_gives_release_and_no_extrapolation():
     assert rel is not None and abs(rel - RELEASE) * 240 <= 6
     assert est.loc[after, ["phi", "phi_d", "phi_dd", "phi_dd_sd"]].isna().all().all()
     assert est.loc[after, "theta_dd"].notna().all()
-    assert any("phi" in note and "not extrapolated" in note for note in est.attrs["notes"])
-    assert np.isnan(est.attrs["cov"]["phi"][after.to_numpy()]).all()
+    notes = est.attrs["smoothing"].notes
+    assert any("phi" in note and "not extrapolated" in note for note in notes)
+    assert np.isnan(est.attrs["smoothing"].cov["phi"][after.to_numpy()]).all()
 
 
 def test_large_jump_in_acceleration_is_found_as_release():
@@ -145,12 +146,12 @@ def test_overrides_are_respected():
     log, _ = synthetic_log(120, 0.5, seed=10)
     est = smooth(log, q=50.0, r={"theta": 0.01}, events={"trigger": 0.31, "release": None})
     assert est.attrs["events"] == {"trigger": 0.31, "release": None}
-    assert est.attrs["event_sources"]["trigger"] == "given"
+    assert est.attrs["smoothing"].event_sources["trigger"] == "given"
     for a in ANGLES:
-        assert est.attrs["noise"][a]["q"] == pytest.approx(50.0, rel=1e-12)
-    assert est.attrs["noise"]["theta"]["r_sd"] == pytest.approx(0.01, rel=1e-12)
-    assert est.attrs["noise"]["theta"]["source"] == "given"
-    assert est.attrs["noise"]["psi"]["source"] == "maximum likelihood"
+        assert est.attrs["smoothing"].noise[a]["q"] == pytest.approx(50.0, rel=1e-12)
+    assert est.attrs["smoothing"].noise["theta"]["r_sd"] == pytest.approx(0.01, rel=1e-12)
+    assert est.attrs["smoothing"].noise["theta"]["source"] == "given"
+    assert est.attrs["smoothing"].noise["psi"]["source"] == "maximum likelihood"
     before = est["t"] <= 0.31
     assert np.all(est.loc[before, "phi_d"] == 0)
 
@@ -162,7 +163,7 @@ def test_untracked_angle_gives_nan_columns():
         est = smooth(log)
     assert est[["phi", "phi_d_sd"]].isna().all().all()
     assert est["theta_dd"].notna().all()
-    assert "phi" not in est.attrs["noise"]
+    assert "phi" not in est.attrs["smoothing"].noise
 
 
 def test_filterpy_backend_agrees():
@@ -178,7 +179,7 @@ def test_filterpy_backend_agrees():
 def test_constant_jerk_model():
     log, truth = synthetic_log(240, 0.5, seed=14)
     est = smooth(log, model="cj")
-    assert est.attrs["cov"]["theta"].shape[1:] == (4, 4)
+    assert est.attrs["smoothing"].cov["theta"].shape[1:] == (4, 4)
     assert _errors(est, truth, "psi_dd")[0] < 0.10
 
 
@@ -258,11 +259,11 @@ def test_piece_before_the_release_is_bounded_by_the_whole_log():
         free = smooth(log, settings=SmoothSettings(shot_pieces=3,
                                                    release_piece_max_decades=np.inf))
     for name in ANGLES:
-        noise = bounded.attrs["noise"][name]
+        noise = bounded.attrs["smoothing"].noise[name]
         pieces = noise["pieces"]
         assert len(pieces) == 4  # three in the shot, the flight
         last = [p for p in pieces if p["t_start"] < release <= p["t_end"] + 1 / 240]
         assert len(last) == 1 and last[0]["q"] <= noise["q"] * (1 + 1e-9)
         assert pieces[0]["q"] < noise["q"]  # the trough: far below
-        unbounded = free.attrs["noise"][name]
+        unbounded = free.attrs["smoothing"].noise[name]
         assert max(p["q"] for p in unbounded["pieces"]) > 2 * unbounded["q"]

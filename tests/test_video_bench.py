@@ -99,8 +99,8 @@ def test_deeplabcut_export_is_read_back(tmp_path, backyard_truth):
     assert [ln.split(",")[0] for ln in lines[:4]] == ["scorer", "bodyparts", "coords", "0"]
     assert lines[2].split(",")[1:4] == ["x", "y", "likelihood"]
     log = _read(path, fps=120.0)
-    assert log.attrs["format"] == "deeplabcut"
-    assert log.attrs["point_names"] == {p: p for p in POINTS}  # found by their own names
+    assert log.attrs["log"].format == "deeplabcut"
+    assert log.attrs["log"].point_names == {p: p for p in POINTS}  # found by their own names
     np.testing.assert_allclose(log["t"], truth["t"], atol=1e-9)
     held = truth["phase"].to_numpy() <= 2
     for a in ("theta", "psi"):
@@ -119,8 +119,8 @@ def test_kinovea_export_is_read_back(tmp_path, backyard_truth):
     assert raw.startswith(b'"Time","Beam/pivot/X","Beam/pivot/Y"') and b"\r\n" in raw
     points_map = dict(zip(POINTS, KINOVEA_NAMES, strict=True))
     log = _read(path, fps=120.0, points=points_map)
-    assert log.attrs["format"] == "kinovea"
-    assert log.attrs["point_names"] == points_map
+    assert log.attrs["log"].format == "kinovea"
+    assert log.attrs["log"].point_names == points_map
     np.testing.assert_allclose(log["t"], truth["t"], atol=1e-9)
     for a in ("theta", "psi"):  # 7 significant digits: about 1e-7 of the coordinates
         np.testing.assert_allclose(log[a], truth[a], atol=1e-5)
@@ -158,15 +158,15 @@ def test_tracked_shot_end_to_end(tmp_path):
     assert shot.path == tmp_path / "small.csv" and shot.path.exists()
     assert len(shot.truth) == shot.positions.shape[0] == shot.scores.shape[0]
     log = _read(shot.path, **shot.read)
-    assert log.attrs["format"] == "deeplabcut" and len(log) > 20
+    assert log.attrs["log"].format == "deeplabcut" and len(log) > 20
     assert np.nanmax(np.abs(np.rad2deg(log["theta"] - shot.truth["theta"].to_numpy()[:len(log)]))
                      ) < 5.0
 
 
 def test_shipped_video_sample_reads_with_its_scene():
     log = _read("data_samples/video_tilted_dlc.csv", fps=120.0)
-    assert log.attrs["format"] == "deeplabcut"
-    assert log.attrs["point_names"] == {p: p for p in POINTS}
-    assert log["t"].iloc[0] == 0.0 and log.attrs["frame"][-1] == 263
+    assert log.attrs["log"].format == "deeplabcut"
+    assert log.attrs["log"].point_names == {p: p for p in POINTS}
+    assert log["t"].iloc[0] == 0.0 and log.attrs["log"].frame[-1] == 263
     scene = tb.Scene.from_toml("data_samples/video_tilted.toml")
     assert scene == tb.Scene.from_toml("data_samples/horsdal_large.toml")

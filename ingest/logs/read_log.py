@@ -149,8 +149,7 @@ def read_log(
         ``attrs["log"]`` is a :class:`~trebuchet.ingest.logs.result.ReadLog`: the source,
         format, repairs, decisions (how each unit was decided), columns, fps, frame
         numbers, the points of a point file, and when a tracked projectile leaves its
-        sling's circle. The separate keys of earlier releases (``attrs["source"]``,
-        ``["repairs"]``, ...) are still written, for this release only.
+        sling's circle; it is the only key in ``attrs``.
 
     Raises
     ------
@@ -467,7 +466,7 @@ def _cut_flight_from_sling(source: LogSource, positions: dict[str, tuple[np.ndar
 
 
 def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame:
-    """The result table with its :class:`ReadLog` (and the old keys); warns once per repair."""
+    """The result table with its :class:`ReadLog`; warns once per repair."""
     df = pd.DataFrame(
         {"t": np.asarray(log.t, dtype=np.float64)}
         | {a: np.asarray(log.angles[a], dtype=np.float64) for a in ANGLES}
@@ -485,7 +484,6 @@ def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame
         leaves_sling=log.leaves_sling,
         lines=log.rows,
     )
-    df.attrs.update(info.legacy_attrs())
     df.attrs["log"] = info
     name = Path(path).name
     for note in repairs:

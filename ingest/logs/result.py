@@ -7,10 +7,10 @@ and every table derived from the log shares it. It compares by identity (``eq=Fa
 ``pandas.concat`` keeps attrs only when every input's are equal, and two logs read from
 the same file are then still equal (the same object) after any derivation.
 
-The old separate keys (``attrs["source"]``, ``["format"]``, ``["repairs"]``,
-``["columns"]``, ``["fps"]``, ``["frame"]``, ``["points"]``, ``["point_names"]``,
-``["leaves_sling"]``) are still written for one release, then removed: read
-``attrs["log"]`` (:func:`read_log_info` for a table that may not come from ``read_log``).
+It is the only key ``read_log`` writes in ``attrs`` (the separate keys of earlier
+releases, ``attrs["source"]``, ``["format"]``, ``["repairs"]``, ... are gone): read
+``attrs["log"]``, or :func:`read_log_info` for a table that may not come from
+``read_log``.
 """
 
 from __future__ import annotations
@@ -99,21 +99,6 @@ class ReadLog:
                            None if self.points is None else dict(self.points),
                            None if self.point_names is None else dict(self.point_names),
                            self.leaves_sling, self.lines))
-
-    def legacy_attrs(self) -> dict[str, Any]:
-        """The separate attrs keys of earlier releases (plain Python values)."""
-        out: dict[str, Any] = {"source": self.source, "format": self.format,
-                               "repairs": list(self.repairs), "columns": dict(self.columns)}
-        if self.fps is not None:
-            out["fps"] = float(self.fps)
-        if self.frame is not None:
-            out["frame"] = [int(f) for f in self.frame]
-        if self.points is not None:
-            out["points"] = {k: [float(v) for v in arr] for k, arr in self.points.items()}
-            out["point_names"] = dict(self.point_names or {})
-        if self.leaves_sling is not None:
-            out["leaves_sling"] = {"t": self.leaves_sling[0], "sd": self.leaves_sling[1]}
-        return out
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

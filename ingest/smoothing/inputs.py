@@ -148,6 +148,8 @@ def checked_events(events, t: np.ndarray, source: str = "smooth") -> dict[str, f
 
 
 def log_name(log) -> str:
-    """The log's file (``log.attrs['source']``, as read) for messages, else ``"smooth"``."""
-    source = log.attrs.get("source") if isinstance(log, pd.DataFrame) else None
+    """The log's file (``source`` of ``read_log``'s ``attrs["log"]``, as read) for
+    messages, else ``"smooth"``."""
+    info = log.attrs.get("log") if isinstance(log, pd.DataFrame) else None
+    source = getattr(info, "source", None)
     return str(source) if source else "smooth"

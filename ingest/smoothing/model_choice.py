@@ -31,6 +31,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
+
 COMBINATIONS: tuple[str, ...] = ("select", "average")
 
 
@@ -108,8 +110,9 @@ def mixture_moments(means: Sequence[np.ndarray], covs: Sequence[np.ndarray],
 
 
 def criterion(noise: Mapping[str, float]) -> float:
-    """``ℓ_prof − p_eff`` of one angle's ``attrs["noise"]`` entry of
-    :func:`~trebuchet.ingest.smoothing.smooth.smooth`: the maximised log-likelihood with the event
+    """``ℓ_prof − p_eff`` of one angle's ``noise`` entry (of the
+    :class:`~trebuchet.ingest.smoothing.result.Smoothing` of
+    :func:`~trebuchet.ingest.smoothing.smooth.smooth`): the maximised log-likelihood with the event
     jumps profiled out, less their effective count (AIC / 2, up to the sign)."""
     return float(noise["loglik"] + noise.get("jump_gain", 0.0) - noise.get("jump_count", 0.0))
 
@@ -118,31 +121,31 @@ def combined_smoothing(ests: Mapping[str, pd.DataFrame], angles: Sequence[str],
                        suffixes: Sequence[str], how: str) -> pd.DataFrame:
     """The output of :func:`~trebuchet.ingest.smoothing.smooth.smooth` combined per angle from the
     runs ``ests`` (model name -> its output, same log and events) by the criterion
-    ``attrs["noise"][angle]["loglik"] + ["jump_gain"] − ["jump_count"]`` (the jumps
+    ``noise[angle]["loglik"] + ["jump_gain"] − ["jump_count"]`` (the jumps
     profiled out, AIC's penalty for them; see the module doc).
 
-    Columns ``X``, ``X_d``, ``X_dd`` and their ``_sd`` are the mixture's; ``attrs`` are
-    the first run's with ``cov`` the mixture's 3×3, ``noise`` per angle that of the
+    Columns ``X``, ``X_d``, ``X_dd`` and their ``_sd`` are the mixture's; its
+    ``Smoothing`` is the first run's with ``cov`` the mixture's 3×3, ``noise`` per angle that of the
     heaviest model (with its ``"model"``), ``model_weights`` ({angle: {model: w}}),
     ``model`` = ``how`` and ``loglik`` the sum over angles of the mixture's criterion
     ``log Σ_m exp(c_m) / M`` (``select``: of the chosen model's).
     """
     names = list(ests)
+    fits = {m: smoothing_of(e) for m, e in ests.items()}
     first = ests[names[0]]
     out = first.copy()
-    attrs = dict(first.attrs)
     cov: dict[str, np.ndarray] = {}
     noise: dict[str, dict] = {}
     weights: dict[str, dict[str, float]] = {}
     total = 0.0
     for angle in angles:
-        if angle not in first.attrs["cov"]:
+        if angle not in fits[names[0]].cov:
             continue
-        ll = [criterion(ests[m].attrs["noise"][angle]) for m in names]
+        ll = [criterion(fits[m].noise[angle]) for m in names]
         w = likelihood_weights(ll, how)
         means = [np.stack([ests[m][angle + s].to_numpy(dtype=float) for s in suffixes], 1)
                  for m in names]
-        covs = [np.asarray(ests[m].attrs["cov"][angle], float)[:, :3, :3] for m in names]
+        covs = [np.asarray(fits[m].cov[angle], float)[:, :3, :3] for m in names]
         mean, P = mixture_moments(means, covs, w)
         for j, s in enumerate(suffixes):
             out[angle + s] = mean[:, j]
@@ -150,13 +153,12 @@ def combined_smoothing(ests: Mapping[str, pd.DataFrame], angles: Sequence[str],
                                                         0.0))
         cov[angle] = P
         best = names[int(np.argmax(w))]
-        noise[angle] = {**ests[best].attrs["noise"][angle], "model": best}
+        noise[angle] = {**fits[best].noise[angle], "model": best}
         weights[angle] = {m: float(wm) for m, wm in zip(names, w, strict=True)}
         finite = np.asarray(ll, float)[np.isfinite(ll)]
         if finite.size:
             top = finite.max()
             total += (float(ll[int(np.argmax(w))]) if how == "select"
                       else float(top + np.log(np.mean(np.exp(finite - top)))))
-    attrs.update(cov=cov, noise=noise, model_weights=weights, model=how, loglik=total)
-    out.attrs = attrs
-    return out
+    return with_smoothing(out, fits[names[0]].replace(
+        cov=cov, noise=noise, model_weights=weights, model=how, loglik=total))

@@ -110,7 +110,7 @@ class SmoothSettings:
     have ``E[r rᵀ] = R0 + α (N − R0)`` when the true process noise is ``α`` times the
     model's (``R0``: under noise alone), so ``α`` is the ratio of ``rᵀ λQ r − tr(λQ R0)``
     to ``tr(λQ (N − R0))`` summed over a Gaussian window of sd ``band_window`` time
-    constants (``attrs["noise"][angle]["band_scale"]``). At the chosen ``q`` (0.8⁶ of the
+    constants (the smoothing's ``noise[angle]["band_scale"]``). At the chosen ``q`` (0.8⁶ of the
     likelihood's maximum) ``α`` is 3–6 on most frames and capped at 1; it falls below 1
     where the motion is smoother than the white-jerk model (the low-noise bands that
     held the truth 1.5–2× too well). On data drawn from the model itself the cap makes

@@ -20,7 +20,8 @@ time step (filterpy's ``Q_continuous_white_noise``), and:
 - trigger and release are found in the data (:mod:`~trebuchet.ingest.events.detection`) unless
   given;
 - gaps (NaN) are predicted through; outside an angle's track (before its first or after
-  its last valid frame) the outputs are NaN, not extrapolated (``attrs["notes"]`` says so).
+  its last valid frame) the outputs are NaN, not extrapolated (the notes of
+  ``attrs["smoothing"]`` say so).
 
 The numerics are the batched numpy filter of :mod:`~trebuchet.ingest.kalman.batch`
 (about 30× faster than filterpy, equal to round-off; ``backend="filterpy"`` runs the final
@@ -62,6 +63,7 @@ from trebuchet.ingest.smoothing.problem import (
     piece_bounds,
     priors,
 )
+from trebuchet.ingest.smoothing.result import Smoothing, smoothing_of, with_smoothing
 from trebuchet.ingest.smoothing.settings import (
     ANGLES,
     BAND_ALPHA_FROM,
@@ -105,10 +107,10 @@ def smooth(
         overrides detection (``None``: no such event), an absent key is detected. Given
         times must lie inside the log and be ordered trigger < lift_off < release
         (``lift_off`` is only checked and passed on); the refusal names the log's file
-        (``log.attrs["source"]``) and the event.
+        (``read_log``'s ``attrs["log"].source``) and the event.
     backend : ``"numpy"`` (batched, default) or ``"filterpy"`` (final pass via filterpy).
     settings : :class:`SmoothSettings`.
-    tuned : ``attrs["noise"]`` of an earlier smoothing of the same log with other events
+    tuned : the ``noise`` of an earlier smoothing of the same log with other events
         (``reconstruct`` smooths again where the engine's equations move the release):
         its ``q`` and ``q_ml`` (rad²/s⁵ or rad²/s⁷) and ``r_sd`` (rad) per angle stand in
         for the single-``q`` noise search. Used only with local noise
@@ -120,18 +122,11 @@ def smooth(
     Returns
     -------
     DataFrame with the log's rows and ``t``, and for each angle ``X`` in theta, psi, phi:
-    ``X``, ``X_d``, ``X_dd`` and ``X_sd``, ``X_d_sd``, ``X_dd_sd``. ``attrs``:
-    ``events`` ({"trigger", "release"}: log time or None), ``event_sources``,
-    ``event_sd`` ({"trigger": sd (s) of a detected or given trigger}), ``noise``
-    ({angle: {"q", "r_sd", "q_ml", "loglik", "jump_gain", "jump_count", "source",
-    "at_grid_edge", "pieces", "q_frames"}}; ``jump_gain``: what profiling over the event
-    jumps adds to ``loglik``, ``jump_count`` their effective number,
-    :func:`~trebuchet.ingest.smoothing.model_choice.jump_profile`; with local noise ``q`` is the
-    density where the shape is at its mean and ``q_frames`` (n,) the one used at each
-    frame), ``cov``
-    ({angle: (n, k, k) smoothed covariance of [angle, rate, acceleration(, jerk)] in SI,
-    with the bias term of ``SmoothSettings.bias_band``, NaN outside the track}),
-    ``model``, ``loglik`` (sum over angles), ``notes``.
+    ``X``, ``X_d``, ``X_dd`` and ``X_sd``, ``X_d_sd``, ``X_dd_sd``.
+    ``attrs["smoothing"]``: a :class:`~trebuchet.ingest.smoothing.result.Smoothing` (the
+    events, their sd and sources, each angle's noise fit and covariance, the model, the
+    log-likelihood, notes); ``attrs["events"]``: its events as a plain dict (trigger,
+    release: log time, s, or None).
 
     Raises
     ------
@@ -144,7 +139,7 @@ def smooth(
             raise TrebuchetInputError(f"smooth: model {model!r} compares fitted models; "
                                       "q (whose units depend on the model) cannot be given")
         first = smooth(log, model="ca", r=r, events=events, backend=backend, settings=settings)
-        found = first.attrs["events"]
+        found = smoothing_of(first).events
         second = smooth(log, model="cj", r=r, backend=backend, settings=settings,
                         events={"trigger": found["trigger"], "release": found["release"]})
         return combined_smoothing({"ca": first, "cj": second}, ANGLES, SUFFIXES, model)
@@ -186,17 +181,12 @@ def smooth(
         Ps = bias_band(p, fit, xs, Ps)
     out, noise, cov, loglik = _assembled(log, p, fit, xs, Ps, band_scale, jump_gain,
                                          jump_count, notes)
-    out.attrs["events"] = {"trigger": trigger, "release": release}
+    found = {"trigger": trigger, "release": release}
     if "lift_off" in given:
-        out.attrs["events"]["lift_off"] = given["lift_off"]
-    out.attrs["event_sources"] = events_found["sources"]
-    out.attrs["event_sd"] = events_found["sd"]
-    out.attrs["noise"] = noise
-    out.attrs["cov"] = cov
-    out.attrs["model"] = model
-    out.attrs["loglik"] = loglik
-    out.attrs["notes"] = notes
-    return out
+        found["lift_off"] = given["lift_off"]
+    return with_smoothing(out, Smoothing(
+        events=found, event_sd=events_found["sd"], event_sources=events_found["sources"],
+        noise=noise, cov=cov, model=model, loglik=loglik, notes=notes))
 
 
 def _untracked_notes(tracked: list[str], name: str) -> list[str]:

@@ -266,7 +266,7 @@ def local_noise(p: SmoothingProblem, fit: TuningState, acc: np.ndarray) -> Tunin
 
 def earlier_estimate(noise: Mapping[str, float], tau: float, k: int) -> NoiseEstimate:
     """A :class:`NoiseEstimate` (smoother units, frames of ``tau`` s, ``k`` states) from
-    one angle's entry of an earlier smoothing's ``attrs["noise"]`` (SI: ``q``, ``q_ml``
+    one angle's entry of an earlier smoothing's ``noise`` (SI: ``q``, ``q_ml``
     rad²/s^(2k−1), ``r_sd`` rad)."""
     r2 = float(noise["r_sd"]) ** 2
     unit = tau ** (2 * k - 1) / r2

@@ -24,6 +24,8 @@ from trebuchet.ingest.compare import (
     compare,
     event_table,
 )
+from trebuchet.ingest.logs.result import read_log_info
+from trebuchet.ingest.reconstruction import reconstruction_of
 from trebuchet.model.scene import Scene
 from trebuchet.output import check_target
 from trebuchet.report.page import write_report
@@ -73,12 +75,14 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
                                              **reconstruct_options)
     advisories = _advisories(caught, predicted)
     events = event_table(measured, predicted)
-    notes = " ".join(str(n).rstrip(".") + "." for n in measured.attrs.get("notes", []))
-    name = Path(str(measured.attrs.get("source", log))).name
+    done = reconstruction_of(measured)
+    notes = " ".join(str(n).rstrip(".") + "." for n in done.notes)
+    info = read_log_info(measured)
+    name = Path(info.source).name if info is not None else "(a table given in Python)"
     lag_ms = 1e3 * float(predicted.attrs.get("lag", 0.0))
     intro = (f"How this was compared: log {name} ({len(measured)} frames at "
-             f"{measured.attrs.get('fps', math.nan):.4g} fps, loads reconstructed in the "
-             f"{measured.attrs.get('form', '?')} form) against the model of "
+             f"{done.fps:.4g} fps, loads reconstructed in the "
+             f"{done.form} form) against the model of "
              f"{Path(scene.source).name}. Every time on this page is in ms after the log's "
              f"detected trigger; the model starts {lag_ms:+.1f} ms from it. Alignment: "
              f"{predicted.attrs['alignment']}. Release: {predicted.attrs['release_rule']}. "
