@@ -207,3 +207,17 @@ def test_reconstruct_finds_the_release_of_a_stone_tracked_in_flight(tmp_path, ho
                    str(w.message) for w in rec)
     phase = res["phase"].to_numpy()
     assert (phase[t > res.attrs["events"]["release"]] == 3).all()
+
+
+def test_at_60_fps_the_windows_hold_too_few_frames_and_the_fit_declines(horsdal):
+    """A cubic sling angle holds over about 0.1 s; at 60 fps that is 6 frames, too few for
+    the circle and the flight (with 20 frames there it took the misfit of a cubic over a
+    third of the backyard engine's swing for a flight, 2 frames early)."""
+    t, truth, points = _shot(horsdal, fps=60.0)
+    px = _pixels(points, 0.2, 0) * np.array([1.0, -1.0])
+    release = truth.attrs["events"]["release"]
+    stone = px[:, 4].copy()
+    stone[t > release + 2 / 60.0] = np.nan
+    until = t[np.flatnonzero(np.isfinite(stone[:, 0]))[-1]]
+    assert stone_release(t, px[:, 1], stone, np.array([0.0, -horsdal.g * PX_PER_M]),
+                         PX_PER_M, until) is None

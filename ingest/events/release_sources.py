@@ -14,8 +14,9 @@ release itself:
 
 Both sds get a floor of ``floor_frames`` frames: on the video bench (28 logs, both
 engines, tilts to 15°, 120 and 240 fps) the equations' release missed by up to 0.75 frame
-(RMS 0.46) where their profile's sd said 0.04–0.09 frame (the tracked angles' errors are
-not white noise), and the stone's by up to 0.74 frame (RMS 0.35, see
+(RMS 0.38 over the 20 logs where they found one; one more 22 frames early, which the
+stone's flight overruled) where their profile's sd said 0.03–0.09 frame (the tracked
+angles' errors are not white noise), and the stone's by up to 0.71 frame (RMS 0.32, see
 :mod:`.stone_flight`). Where both are found and agree within ``agreement_sd`` of the sd
 of their difference, the estimate is their inverse-variance mean; where they disagree the
 stone's flight, seen directly, is taken and a warning names both. Without a flight

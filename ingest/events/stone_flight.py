@@ -28,14 +28,18 @@ release must gain ``min_log_ratio``; else the stone was not seen in flight.
 
 Measured on the video bench's cells (``bench/video_accuracy.py``: paper and backyard
 engines; base, tilt 5/10/15°, roll 1°, 120 fps, the issue's scenario; seeds 0, 1; 28
-logs): every release within 0.8 frame of the truth (RMS 0.35 frame, mean +0.27), where
-the profile's own spread is 0.001–0.1 frame: the tracker's errors are not white noise
-(the template's offset drifts as the sling line leaves the stone). The spread also
+logs): every release seen in flight, within 0.71 frame of the truth (RMS 0.32, mean
++0.23, growing with the camera's tilt), where the profile's own spread is 0.001–0.1
+frame: the tracker's errors are not white noise (the template's offset drifts as the
+sling line leaves the stone). The spread also
 leaves out the error of the spigot's own fit, whose velocity at ``t_r`` carries the
 flight: with 0.2 px of white noise on every point and 6 frames of flight the estimates
 scatter by 0.37 frame where the profile says 0.15 (0.15 and 0.15 with an exact spigot;
 no noise: within 0.03 frame). So the sd a caller states needs a floor
-(:mod:`.release_sources` adds half a frame).
+(:mod:`.release_sources` adds half a frame). The windows are set in time (a cubic sling
+angle over 0.1 s): at 60 fps they hold too few frames and the fit declines (None); with
+windows of 12 + 8 frames there it took the misfit of a cubic over a third of the backyard
+engine's swing for a flight, 2 frames early.
 """
 
 from __future__ import annotations
@@ -57,18 +61,20 @@ __all__ = ["StoneFlightFit", "StoneRelease", "stone_release", "release_misfit", 
 class StoneFlightFit:
     """Settings of :func:`stone_release`.
 
-    ``max_flight_frames``: candidates reach this many frames back from the end of the
-    search (the release is sought in the last frames of the stone's sling track);
-    ``pre_window_s``: the circle's part of the fit reaches this far (s, at least
-    ``min_pre_frames`` frames) before the earliest candidate; ``phi_degree``: degree of the
-    sling angle's polynomial; ``outlier_scale``: the Cauchy loss's scale in residual sd;
+    ``max_flight_s``: candidates reach this far (s, at least ``min_flight_frames``
+    frames) back from the end of the search (the release is sought in the last frames of
+    the stone's sling track); ``pre_window_s``: the circle's part of the fit reaches this
+    far (s, at least ``min_pre_frames`` frames) before the earliest candidate;
+    ``phi_degree``: degree of the sling angle's polynomial; ``outlier_scale``: the Cauchy
+    loss's scale in residual sd;
     ``start_scale_m``: the first pass's loss scale (m on the engine, converted by the
     log's scale); ``subframe_steps``, ``profile_drop``, ``max_fine_candidates``: the
     profile's refinement (:func:`~.detection.refined_profile`); ``min_log_ratio``: the
     log-likelihood a release must gain over none in the window.
     """
 
-    max_flight_frames: int = 12
+    max_flight_s: float = 0.05
+    min_flight_frames: int = 3
     pre_window_s: float = 0.05
     min_pre_frames: int = 8
     phi_degree: int = 3
@@ -80,13 +86,14 @@ class StoneFlightFit:
     min_log_ratio: float = 6.0
 
     def __post_init__(self) -> None:
-        if (self.max_flight_frames < 2 or self.min_pre_frames < self.phi_degree + 3
+        if (not self.max_flight_s > 0 or self.min_flight_frames < 2
+                or self.min_pre_frames < self.phi_degree + 3
                 or not self.pre_window_s > 0 or not self.outlier_scale > 0
                 or not self.start_scale_m > 0 or self.subframe_steps < 1):
             raise TrebuchetInputError(
-                "StoneFlightFit: max_flight_frames must be ≥ 2, min_pre_frames > phi_degree "
-                "+ 2, pre_window_s, outlier_scale and start_scale_m positive and "
-                "subframe_steps ≥ 1")
+                "StoneFlightFit: max_flight_s must be positive, min_flight_frames ≥ 2, "
+                "min_pre_frames > phi_degree + 2, pre_window_s, outlier_scale and "
+                "start_scale_m positive and subframe_steps ≥ 1")
 
 
 @dataclass(frozen=True)
@@ -233,15 +240,15 @@ def stone_release(t: np.ndarray, spigot: np.ndarray, stone: np.ndarray, g_image:
     per s² (``(0, −g·scale)`` for an image whose axes are the engine's); ``scale``: the
     log's length unit per m (to set the first loss scale); ``until`` (s): the end of the
     search (the sling track's last frame, or where the stone is seen far off its circle):
-    candidates lie within ``max_flight_frames`` frames before it, the fit's data reach as
-    far after it. None when too few positions are tracked there.
+    candidates lie within ``max_flight_s`` before it, the fit's data reach as far after
+    it. None when too few positions are tracked there.
     """
     t = np.asarray(t, dtype=float)
     spigot, stone = np.asarray(spigot, dtype=float), np.asarray(stone, dtype=float)
     if t.size < 3:
         return None
     dt = float(np.median(np.diff(t)))
-    k = settings.max_flight_frames
+    k = max(settings.min_flight_frames, int(round(settings.max_flight_s / dt)))
     pre = max(settings.min_pre_frames, int(round(settings.pre_window_s / dt)))
     tracked = np.isfinite(stone).all(axis=1) & np.isfinite(spigot).all(axis=1)
     rows = tracked & (t >= until - (k + pre + 0.5) * dt) & (t <= until + (k + 0.5) * dt)
