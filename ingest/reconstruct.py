@@ -47,7 +47,12 @@ from trebuchet.errors import (
 )
 from trebuchet.ingest.advisory import resolution_advisories
 from trebuchet.ingest.calibrated_angles import calibrated_log, widened_by_calibration
-from trebuchet.ingest.events.lift_off import lift_off_sd, lift_off_time
+from trebuchet.ingest.events.lift_off import (
+    lift_off_sd,
+    lift_off_time,
+    offset_widened_sd,
+    rest_offset,
+)
 from trebuchet.ingest.events.release_model import (
     ModelRelease,
     ReleaseFit,
@@ -55,7 +60,9 @@ from trebuchet.ingest.events.release_model import (
     release_from_model,
     scene_doubt,
 )
+from trebuchet.ingest.events.release_sources import TrackEndRelease, release_at_track_end
 from trebuchet.ingest.events.sling_continuation import continued_sling
+from trebuchet.ingest.events.stone_flight import points_stone_release
 from trebuchet.ingest.geometry.user_calibration import read_calibration
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
 from trebuchet.ingest.logs.result import read_log_info
@@ -119,8 +126,14 @@ class ReconstructOptions:
     (sd: the gap / √12) and handed to the smoother, instead of the smoother's search for
     a jump in the last frames of the track (which at 60 fps landed about 6 frames early
     on simulated logs, ``bench/ingest_accuracy.py``); with ``release_model`` set, a
-    track's end is the release only if the engine agrees (:func:`_lost_or_released`: a
-    track lost before the release is carried on by the sling's pendulum).
+    track's end is the release only if the engine or the stone agrees
+    (:func:`_lost_or_released`: a track lost before the release is carried on by the
+    sling's pendulum; a stone tracked in flight past the release is found leaving its
+    sling's circle, :mod:`.events.stone_flight`; the sources are weighed by their sd,
+    :mod:`.events.release_sources`). On the video bench (``bench/video_accuracy.py``, 28
+    logs of both engines, tilts to 15°, 120 and 240 fps) the track's end came 1.4–11
+    frames after the release with a stated sd of 0.29 frame; with the stone and the
+    equations every release lies within 0.71 frame, sd 0.36–0.5 frame.
     ``resolution_fraction``: the advisory speaks where a load's sd exceeds this fraction of
     its peak. ``model``: the smoother's model ("ca", "cj", or per angle the likelier of
     both, "select", or their mixture, "average":
@@ -325,7 +338,10 @@ def _event_variance(t: np.ndarray, event: float | None, sd: float,
 def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
                      trigger: float | None, release: float | None,
                      options: ReconstructOptions) -> tuple[float | None, float]:
-    """Lift-off (s, log time) and its sd (s) from the phase-I normal force on every row."""
+    """Lift-off (s, log time) and its sd (s) from the phase-I normal force on every row;
+    the sd widened by the shift the angles' common offset at rest (the log's θ at rest
+    against the scene's start θ: a camera's roll) makes (:func:`.events.lift_off.
+    offset_widened_sd`)."""
     t = state["t"].to_numpy()
     trial = shot_phases(t, scene, trigger, None, None)
     trial[trial == 3] = 1
@@ -341,7 +357,14 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     prop = propagate(lambda s: _evaluate(s, np.resize(trial[rows], len(s)), scene,
                                          options.form, options.trough),
                      sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True)
-    return when, lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
+    sd = lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
+    offset = rest_offset(t, state["theta"].to_numpy(), trigger, scene.start.theta)
+    if np.isfinite(offset) and offset != 0.0:  # the angles' common offset moves F_N's zero
+        shifted = state.assign(theta=state["theta"].to_numpy() - offset)
+        fn_shifted = _evaluate(shifted, trial, scene, options.form, options.trough)["F_N"]
+        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted.to_numpy(), trigger,
+                                                        release))
+    return when, sd
 
 
 def sling_track_end(log: pd.DataFrame, min_frames: int = 3) -> tuple[float, float] | None:
@@ -522,13 +545,6 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     return with_smoothing(est, again.with_source("release", fitted.how)), fitted.sd
 
 
-#: A sling track that ends is a lost track, not the release, where the engine's equations
-#: put the release this many of their sd after the first frame the track misses (at 1 sd,
-#: 3 of 4 simulated logs at 60–120 fps and 1–2° whose track ends at the release were
-#: taken for lost ones: the sd is the model's, the track end's own is a frame).
-LOST_TRACK_SD = 3.0
-
-
 def _model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
                    settings: ReleaseFit) -> ModelRelease:
     """:func:`.events.release_model.release_from_model` on the log's raw θ and ψ (rad,
@@ -580,33 +596,52 @@ def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFra
                       r: float | Mapping[str, float] | None,
                       track_end: tuple[float, float]) -> tuple[pd.DataFrame, float]:
     """The smoothed log and the release's sd (s) where the sling's track ends while θ and ψ
-    go on: a release only if the engine agrees. φ is carried on past the track by the
-    sling's pendulum, and the release is sought in θ and ψ with the engine's equations
-    (:func:`_model_release`). Where they put it, by :data:`LOST_TRACK_SD` of its sd, after
-    the first frame the track misses, the track was lost, not released: the log is
-    smoothed again with the equations' release, φ carried on up to it (phase II keeps its
-    sling loads), and a note says so; else the track's end stands (``est`` as it is)."""
+    go on: a release only if the engine or the stone agrees
+    (:func:`.events.release_sources.release_at_track_end`). The sources: the engine's
+    equations on θ and ψ (:func:`_model_release`, φ carried on past the track by the
+    sling's pendulum) and, for a point log, the tracked stone leaving its sling's circle
+    (:func:`.events.stone_flight.points_stone_release`). A track lost before the release
+    (the equations put it well after the track's end): the log is smoothed again with the
+    equations' release, φ carried on up to it (phase II keeps its sling loads), and a note
+    says so. A release before the track's end (the stone tracked in flight): smoothed
+    again with it, φ left out after it (a flying stone's direction is no sling angle).
+    Else the track's end stands (``est`` as it is). Sources that disagree warn
+    (ModelValidityWarning), naming the one taken."""
     settings = options.release_model
     phi = est["phi"].to_numpy(dtype=float)
     last = int(np.flatnonzero(np.isfinite(phi))[-1])
+    t = est["t"].to_numpy(dtype=float)
     fitted = _model_release(angles_log, _with_continued_sling(est, scene, last), scene,
                             settings)
-    t = est["t"].to_numpy(dtype=float)
-    if (fitted.time is None or not fitted.misfit <= settings.max_misfit
-            or fitted.time - LOST_TRACK_SD * fitted.sd <= t[last + 1]):
-        return est, track_end[1]
-    t_last = float(t[last])
-    again = _smooth_again(log, est, options, smooth_events, q, r, fitted.time)
-    again = _with_continued_sling(again, scene, last, until=fitted.time)
-    gap = fitted.time - track_end[0]
-    fit = smoothing_of(again).with_source(
-        "release", f"the engine's equations (the sling's track was lost at {t_last:.4f} s)")
-    fit = fit.noted(
-        f"the sling's track ends at {t_last:.4f} s, but θ and ψ follow the engine in the sling "
-        f"until {fitted.time:.4f} s (sd {1e3 * fitted.sd:.1f} ms, {1e3 * gap:.0f} ms later): "
-        "the track was lost, not released; φ is carried on by the sling's pendulum up to the "
-        "release")
-    return with_smoothing(again, fit), fitted.sd
+    info = read_log_info(log)
+    stone = (None if info is None or info.points is None
+             else points_stone_release(info.points, scene, float(t[last])))
+    choice = release_at_track_end(track_end, float(t[last]), float(t[last + 1]),
+                                  float(np.median(np.diff(t))), stone, fitted,
+                                  TrackEndRelease(max_misfit=settings.max_misfit))
+    if choice.warning is not None:
+        warnings.warn(f"{Path(_source(log)).name}: {choice.warning}", ModelValidityWarning,
+                      stacklevel=3)
+    if choice.kind == "track end" and choice.time == track_end[0]:
+        return with_smoothing(est, smoothing_of(est).noted(choice.note, choice.warning)), \
+            choice.sd
+    if choice.kind == "lost":
+        t_last = float(t[last])
+        again = _smooth_again(log, est, options, smooth_events, q, r, choice.time)
+        again = _with_continued_sling(again, scene, last, until=choice.time)
+        gap = choice.time - track_end[0]
+        fit = smoothing_of(again).with_source("release", choice.source).noted(
+            f"the sling's track ends at {t_last:.4f} s, but θ and ψ follow the engine in the "
+            f"sling until {choice.time:.4f} s (sd {1e3 * choice.sd:.1f} ms, "
+            f"{1e3 * gap:.0f} ms later): the track was lost, not released; φ is carried on "
+            "by the sling's pendulum up to the release", choice.note, choice.warning)
+        return with_smoothing(again, fit), choice.sd
+    cut = log.copy()
+    cut.loc[cut["t"].to_numpy(dtype=float) > choice.time, "phi"] = np.nan
+    again = _smooth_again(cut, est, options, smooth_events, q, r, choice.time)
+    fit = smoothing_of(again).with_source("release", choice.source).noted(choice.note,
+                                                                          choice.warning)
+    return with_smoothing(again, fit), choice.sd
 
 
 def _smooth_again(log: pd.DataFrame, est: pd.DataFrame, options: ReconstructOptions,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["lift_off_time", "lift_off_sd"]
+__all__ = ["lift_off_time", "lift_off_sd", "rest_offset", "offset_widened_sd"]
 
 
 def lift_off_time(t: np.ndarray, normal_force: np.ndarray, trigger: float | None,
@@ -52,3 +52,28 @@ def lift_off_sd(t: np.ndarray, normal_force: np.ndarray, normal_force_sd: np.nda
     if not (np.isfinite(slope) and np.isfinite(sd)) or slope == 0.0:
         return float("nan")
     return float(abs(sd / slope))
+
+
+def rest_offset(t: np.ndarray, theta: np.ndarray, trigger: float | None,
+                start_theta: float, min_rows: int = 3) -> float:
+    """The beam's angle at rest in the log minus the scene's start angle (rad): the median
+    of ``theta`` (rad) on the rows at or before ``trigger`` (s) less ``start_theta``
+    (rad). A camera's roll (or its tilt, or a marker clicked off the beam's line) adds
+    about this much to every angle the log reads; NaN without ``min_rows`` rest rows."""
+    if trigger is None:
+        return float("nan")
+    rest = (np.asarray(t, dtype=float) <= trigger) & np.isfinite(theta)
+    if rest.sum() < min_rows:
+        return float("nan")
+    return float(np.median(np.asarray(theta, dtype=float)[rest]) - start_theta)
+
+
+def offset_widened_sd(sd: float, lift_off: float, shifted: float | None) -> float:
+    """The lift-off's sd (s) widened by the shift of the lift-off (s) found with every
+    angle moved by the log's :func:`rest_offset` (``shifted``, s; None: none found, then
+    ``sd`` stands): the normal force's zero moves with the angles' common offset, which
+    the smoother's sd does not hold (on the video bench a 1° camera roll moved lift-off
+    by 2–3 frames where its sd said 0.4)."""
+    if shifted is None or not np.isfinite(shifted):
+        return sd
+    return float(np.hypot(sd, shifted - lift_off)) if np.isfinite(sd) else abs(shifted - lift_off)
