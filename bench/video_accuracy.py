@@ -222,8 +222,9 @@ def run(out_dir: Path, cells: list[Cell] | None = None, seeds: tuple[int, ...] =
         + ", ".join(f"{k} {int(v)}" for k, v in met.items()),
         "times (video_s: render + track; reconstruct_s) are wall times on 2 shared cores with "
         "other jobs running: compare them within one run only",
-        "reconstruct with its default settings (today's code): no camera model, no "
-        "self-calibration",
+        "reconstruct with its default settings (today's code): the engine calibrates the "
+        "image itself (no camera file), the release from the tracked stone's flight and the "
+        "engine's equations, systematic angle sd in the bands",
     ]
     for (engine, change), errors in runs[runs["error"] != ""].groupby(
             ["engine", "change"], sort=False)["error"]:
