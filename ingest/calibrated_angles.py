@@ -24,7 +24,7 @@ from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
 from trebuchet.model.scene import Scene
 
-__all__ = ["CalibratedLog", "calibrated_log", "mapped_angles", "point_tracks",
+__all__ = ["CalibratedLog", "calibrated_log", "mapped_angles", "plane_points", "point_tracks",
            "widened_by_calibration", "pixel_factor", "beam_length"]
 
 ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
@@ -36,13 +36,16 @@ class CalibratedLog:
     in flight), the calibration itself, the angle sd the calibration carries into every
     frame alike (rad per angle and frame, for the bands), the notes for the result (the
     camera found, what was fitted, the points left out) and the warnings (points that break
-    the engine's geometry, named with their frames)."""
+    the engine's geometry, named with their frames) and the points in the engine's plane
+    (``t`` and ``<role>_x``, ``<role>_y``, :func:`plane_points`; None where the calibration
+    was refused)."""
 
     log: pd.DataFrame
     calibration: Calibration
     common_sd: dict[str, np.ndarray]
     notes: tuple[str, ...]
     warnings: tuple[str, ...]
+    plane: pd.DataFrame | None = None
 
 
 def point_tracks(log: pd.DataFrame) -> dict[str, np.ndarray] | None:
@@ -107,7 +110,8 @@ def calibrated_log(log: pd.DataFrame, scene: Scene, *, in_pixels: bool | None = 
     cal = calibrate(tracks, scene.engine, H=scene.start.H, g=scene.g if vacuum else None,
                     t=t, trough=scene.projectile == "trough")
     out = log.copy()
-    angles = mapped_angles(tracks, cal)
+    plane = plane_points(tracks, cal)
+    angles = point_angles({role: (p[:, 0], p[:, 1]) for role, p in plane.items()})
     for name in ("theta", "psi", "phi"):
         had = log[name].to_numpy(dtype=float)
         z = np.asarray(angles.get(name, np.full(len(log), np.nan)), dtype=float)
@@ -130,7 +134,9 @@ def calibrated_log(log: pd.DataFrame, scene: Scene, *, in_pixels: bool | None = 
                    "wrong camera; the angles are the image's, as read")
         zero = {name: np.zeros(len(log)) for name in common}
         return CalibratedLog(log.copy(), cal, zero, (refused,), (refused,))
-    return CalibratedLog(out, cal, common, notes, flagged)
+    points = pd.DataFrame({"t": t} | {f"{role}_{c}": xy[:, j] for role, xy in plane.items()
+                                      for j, c in enumerate("xy")})
+    return CalibratedLog(out, cal, common, notes, flagged, points)
 
 
 #: Self-calibrated angles further than this (°, median over the frames, the worst of θ,
@@ -151,20 +157,11 @@ def disagreement_deg(log: pd.DataFrame, calibrated: pd.DataFrame) -> float:
     return worst
 
 
-def mapped_angles(tracks: dict[str, np.ndarray], cal: Calibration) -> dict[str, np.ndarray]:
-    """θ, ψ, φ (rad, the paper's branch; NaN where a point is missing or flagged) by the
-    same pairs of points as ``read_log`` takes (:data:`.geometry.points.NEEDS`), each point
-    first taken to the engine's plane through the camera found: its marker offset (px)
-    taken off, the lens undone and the projective map inverted (``Camera.unproject``); the
-    hinge, as in ``read_log``, filled and checked by the beam (:mod:`.geometry.beam_hinge`).
-
-    Not the calibration's own per-frame angles (``cal.theta`` …, a constrained fit of every
-    point of the frame): where its constraints switch (the stone leaving the trough) or
-    the set of tracked points changes, that fit steps by the points' small misfits, and
-    the smoother reads the step as an acceleration. Measured on rendered and tracked shots
-    (240 fps, frame members in front): the paper engine, 10° tilt, |F_R| RMS error 37 % of
-    its peak with the fit's angles, 3.3 % with these (3.3 % raw, θ RMS 0.42° raw, 0.20°
-    both); the backyard engine, 10° tilt, 19 % against 0.8 % (1.4 % raw)."""
+def plane_points(tracks: dict[str, np.ndarray], cal: Calibration) -> dict[str, np.ndarray]:
+    """Each tracked point (n, 2) in the engine's plane through the camera found: its marker
+    offset (px) taken off, the lens undone and the projective map inverted
+    (``Camera.unproject``); NaN where missing or flagged; the hinge, where pivot and spigot
+    are tracked, taken from the beam through them as ``read_log`` takes it."""
     camera = cal.camera
     plane = {}
     for role, xy in tracks.items():
@@ -177,6 +174,22 @@ def mapped_angles(tracks: dict[str, np.ndarray], cal: Calibration) -> dict[str, 
         beam = beam_hinge(plane["pivot"], plane["spigot"], plane["hinge"])
         if beam is not None:
             plane["hinge"] = beam.xy
+    return plane
+
+
+def mapped_angles(tracks: dict[str, np.ndarray], cal: Calibration) -> dict[str, np.ndarray]:
+    """θ, ψ, φ (rad, the paper's branch; NaN where a point is missing or flagged) by the
+    same pairs of points as ``read_log`` takes (:data:`.geometry.points.NEEDS`) from the
+    points in the engine's plane (:func:`plane_points`).
+
+    Not the calibration's own per-frame angles (``cal.theta`` …, a constrained fit of every
+    point of the frame): where its constraints switch (the stone leaving the trough) or
+    the set of tracked points changes, that fit steps by the points' small misfits, and
+    the smoother reads the step as an acceleration. Measured on rendered and tracked shots
+    (240 fps, frame members in front): the paper engine, 10° tilt, |F_R| RMS error 37 % of
+    its peak with the fit's angles, 3.3 % with these (3.3 % raw, θ RMS 0.42° raw, 0.20°
+    both); the backyard engine, 10° tilt, 19 % against 0.8 % (1.4 % raw)."""
+    plane = plane_points(tracks, cal)
     return point_angles({role: (p[:, 0], p[:, 1]) for role, p in plane.items()})
 
 

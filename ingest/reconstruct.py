@@ -834,7 +834,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     est = with_continued_counterweight(est, scene, angles_log[ANGLES.index("psi")])
     found = smoothing_of(est).events
     est = with_systematic_angles(est, systematic_angles(
-        log, scene, found.get("trigger"), found.get("release"), lengths=calibrated is None))
+        log, scene, found.get("trigger"), found.get("release"),
+        points=None if calibrated is None else calibrated.plane))
     info = read_log_info(log)
     lines = info.lines if info is not None and info.lines is not None \
         and len(info.lines) == len(est) else None

@@ -238,12 +238,15 @@ def misfit_acceleration_sd(t: np.ndarray, rel: np.ndarray) -> float:
 
 
 def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
-                      release: float | None, lengths: bool = True) -> SystematicAngles:
+                      release: float | None, lengths: bool = True,
+                      points: pd.DataFrame | None = None) -> SystematicAngles:
     """The systematic sd of each angle of ``log`` (``t`` s; θ, ψ, φ rad; the points of a
     point log in its ``read_log`` info) from its rest pose before ``trigger`` and, for a
     point log with ``lengths``, its segments' lengths (the sling's up to ``release``; s,
-    log time). ``lengths=False`` for a log whose angles come from a calibrated image
-    map: the file's raw points then no longer measure the angles' error."""
+    log time). ``points`` (``t``, ``<role>_x``, ``<role>_y``) stand in for the file's: the
+    points in the engine's plane the angles of a calibrated image come from
+    (:func:`~.calibrated_angles.plane_points`), whose lengths measure what the camera
+    found leaves; ``lengths=False`` measures no lengths."""
     t = log["t"].to_numpy(float)
     angles = {a: log[a].to_numpy(float) for a in ANGLES}
     offset, offset_sd = rest_pose_offsets(t, angles, trigger, scene)
@@ -251,8 +254,9 @@ def systematic_angles(log: pd.DataFrame, scene: Scene, trigger: float | None,
     misfit = {a: float("nan") for a in ANGLES}
     rate_sd = {a: np.zeros(t.size) for a in ANGLES}
     acc_sd = {a: 0.0 for a in ANGLES}
-    if lengths and info is not None and info.points is not None:
+    if points is None and info is not None and info.points is not None:
         points = pd.DataFrame(dict(info.points))
+    if lengths and points is not None:
         if len(points) == len(log):
             held = t < release if release is not None else np.ones(t.size, bool)
             every = np.ones(t.size, bool)
