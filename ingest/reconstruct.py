@@ -30,7 +30,6 @@ Units: SI (s, rad, rad/s, rad/s², N, N m, W, J, m, m/s).
 from __future__ import annotations
 
 import dataclasses
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,6 +43,7 @@ from trebuchet.errors import (
     TrebuchetDataWarning,
     TrebuchetInputError,
     check_choice,
+    warn_at_caller,
 )
 from trebuchet.ingest.advisory import resolution_advisories
 from trebuchet.ingest.calibrated_angles import calibrated_log, widened_by_calibration
@@ -525,10 +525,10 @@ def _release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd
     use, sentence = release_choice(fitted, found.get("release"), settings)
     name = Path(_source(log)).name
     if sentence is not None and not use:
-        warnings.warn(f"{name}: {sentence}", ModelValidityWarning, stacklevel=3)
+        warn_at_caller(f"{name}: {sentence}", ModelValidityWarning)
     doubt = scene_doubt(fitted, settings)
     if doubt is not None:
-        warnings.warn(f"{name}: {doubt}", ModelValidityWarning, stacklevel=3)
+        warn_at_caller(f"{name}: {doubt}", ModelValidityWarning)
     if not use:
         # the smoother's own release stands: the log smoothed again with it given
         est = _smooth_again(log, est, options, smooth_events, q, r, found.get("release"))
@@ -620,8 +620,7 @@ def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFra
                                   float(np.median(np.diff(t))), stone, fitted,
                                   TrackEndRelease(max_misfit=settings.max_misfit))
     if choice.warning is not None:
-        warnings.warn(f"{Path(_source(log)).name}: {choice.warning}", ModelValidityWarning,
-                      stacklevel=3)
+        warn_at_caller(f"{Path(_source(log)).name}: {choice.warning}", ModelValidityWarning)
     if choice.kind == "track end" and choice.time == track_end[0]:
         return with_smoothing(est, smoothing_of(est).noted(choice.note, choice.warning)), \
             choice.sd
@@ -781,7 +780,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     if calibrated is not None:
         log = calibrated.log
         for note in calibrated.warnings:
-            warnings.warn(f"{Path(source).name}: {note}", TrebuchetDataWarning, stacklevel=2)
+            warn_at_caller(f"{Path(source).name}: {note}", TrebuchetDataWarning)
     given: dict[str, float | None] = {}
     t_log, angles_log = validated_log(log, smoother_settings(options).min_frames)
     if events is not None:
@@ -848,6 +847,6 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     warn_findings(list(done.validity), name)
     advice = done.advisories
     if advice:
-        warnings.warn(f"{name}: " + "; ".join(a.message for a in advice),
-                      ModelValidityWarning, stacklevel=2)
+        warn_at_caller(f"{name}: " + "; ".join(a.message for a in advice),
+                      ModelValidityWarning)
     return result

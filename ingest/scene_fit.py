@@ -16,11 +16,9 @@ Positions come from :mod:`trebuchet.model.kinematics`; lengths in m.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
-from trebuchet.errors import ModelValidityWarning
+from trebuchet.errors import ModelValidityWarning, warn_at_caller
 from trebuchet.model import kinematics as kin
 from trebuchet.model.scene import Scene
 
@@ -115,4 +113,4 @@ def geometry_findings(t: np.ndarray, phase: np.ndarray, theta: np.ndarray, psi: 
 def warn_findings(findings: list[str], source: str) -> None:
     """Warn once per finding as a ModelValidityWarning prefixed with ``source``."""
     for text in findings:
-        warnings.warn(f"{source}: {text}", ModelValidityWarning, stacklevel=3)
+        warn_at_caller(f"{source}: {text}", ModelValidityWarning)

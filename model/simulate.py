@@ -12,7 +12,6 @@ events, the flight in vacuum and the solver's diagnostics.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
@@ -21,7 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
@@ -410,10 +409,9 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
         "slack": slack, "advice": _advice(scene, traj),
     }
     for a, b in run.attrs["diagnostics"]["slack"]:
-        warnings.warn(ModelValidityWarning(
+        warn_at_caller(ModelValidityWarning(
             f"{scene.source}: the sling goes slack (tension below zero) from t = {a:.4g} s to "
-            f"{b:.4g} s: a rigid sling cannot push, so the loads there are fiction"),
-            stacklevel=2)
+            f"{b:.4g} s: a rigid sling cannot push, so the loads there are fiction"))
     return run
 
 

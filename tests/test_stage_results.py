@@ -108,3 +108,16 @@ def test_the_command_line_turns_the_self_calibration_off_by_name():
         "image_calibration"] is None
     with pytest.raises(SystemExit):
         p.parse_args(["shot.csv", "--scene", "s.toml", "--image-calibration", "auto"])
+
+
+def test_warnings_point_at_the_users_line_not_into_the_package():
+    """A repair warned while ``reconstruct`` reads a file, and the validity warnings of the
+    reconstruction, are reported at the caller's line (``errors.warn_at_caller``)."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "data_samples"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        reconstruct(root / "video_paper_dlc.csv", root / "video_paper.toml", fps=240)
+    assert caught
+    assert {Path(w.filename).resolve() for w in caught} == {Path(__file__).resolve()}

@@ -28,14 +28,13 @@ from __future__ import annotations
 
 import math
 import re
-import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import Option, TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.errors import Option, TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.ingest.geometry.beam_hinge import beam_hinge, hinge_note
 from trebuchet.ingest.geometry.points import NEEDS, point_angles, resolve_points
 from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
@@ -178,11 +177,11 @@ def read_log(
     except TrebuchetInputError as exc:  # the file's name, once, in front of the place
         raise exc.in_file(path) from None
     if calibration is not None and (calibration.residual_px or 0.0) > RESIDUAL_WARN_PX:
-        warnings.warn(f"{Path(calibration.source).name}: the known points miss their "
+        warn_at_caller(f"{Path(calibration.source).name}: the known points miss their "
                       f"homography by {calibration.residual_px:.2f} px rms (more than "
                       f"{RESIDUAL_WARN_PX:g} px): a mistyped point, or a lens that bends (give "
                       "its camera matrix and distortion in the same file)",
-                      TrebuchetDataWarning, stacklevel=2)
+                      TrebuchetDataWarning)
     return _frame(path, log, repairs)
 
 
@@ -537,7 +536,7 @@ def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame
     df.attrs["log"] = info
     name = Path(path).name
     for note in repairs:
-        warnings.warn(f"{name}: {note}", TrebuchetDataWarning, stacklevel=3)
+        warn_at_caller(f"{name}: {note}", TrebuchetDataWarning)
     return df
 
 

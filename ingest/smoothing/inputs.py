@@ -4,13 +4,12 @@ and row)."""
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.ingest.smoothing.settings import ANGLES
 
 
@@ -71,11 +70,9 @@ def unwrapped_angles(Z: np.ndarray) -> np.ndarray:
         ok = np.isfinite(Z[a])
         if ok.sum() > 1 and np.any(np.abs(np.diff(Z[a][ok])) > np.pi):
             Z[a][ok] = np.unwrap(Z[a][ok])
-            warnings.warn(
+            warn_at_caller(
                 f"smooth: column '{name}' jumps by more than π between frames; unwrapped",
-                TrebuchetDataWarning,
-                stacklevel=3,
-            )
+                TrebuchetDataWarning)
     return Z
 
 

@@ -38,13 +38,12 @@ the trigger (:func:`_trigger`), the fixed parts (:func:`_problem`,
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.ingest.events.detection import robust_noise_sd, trigger_estimate
 from trebuchet.ingest.smoothing.band import bias_band, calibrated_band, shrunk_alpha
 from trebuchet.ingest.smoothing.inputs import (
@@ -195,9 +194,9 @@ def _untracked_notes(tracked: list[str], name: str) -> list[str]:
     for a in ANGLES:
         if a not in tracked:
             notes.append(f"{a}: not tracked (all NaN); its columns are NaN")
-            warnings.warn(TrebuchetDataWarning(
+            warn_at_caller(TrebuchetDataWarning(
                 f"{name}: {a} is not tracked (no value at all): its rate, "
-                "acceleration and every load that needs it are NaN"), stacklevel=3)
+                "acceleration and every load that needs it are NaN"))
     return notes
 
 
