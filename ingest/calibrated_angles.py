@@ -20,6 +20,7 @@ import pandas as pd
 from trebuchet.ingest.geometry.beam_hinge import beam_hinge
 from trebuchet.ingest.geometry.calibration import Calibration, calibrate
 from trebuchet.ingest.geometry.points import point_angles
+from trebuchet.ingest.logs.read_log import PIXEL_FORMATS  # image pixels: the priors' unit
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
 from trebuchet.model.scene import Scene
@@ -64,8 +65,6 @@ def point_tracks(log: pd.DataFrame) -> dict[str, np.ndarray] | None:
     return out or None
 
 
-#: Formats whose points are image pixels (the calibration's priors speak of pixels).
-PIXEL_FORMATS = ("deeplabcut", "sleap")
 #: A beam shorter than this many file units is not in pixels (a file in m or cm)...
 PIXEL_BEAM = 50.0
 #: ...and is fitted in pseudo-pixels that put the long arm L1 at this many: a camera
