@@ -71,7 +71,7 @@ from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
 from trebuchet.ingest.smoothing.counterweight_continuation import with_continued_counterweight
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
-from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
+from trebuchet.ingest.smoothing.result import smoothing_of, with_angle_rows, with_smoothing
 from trebuchet.ingest.smoothing.smooth import (
     ANGLES,
     SUFFIXES,
@@ -568,25 +568,14 @@ def _with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
     after the sling track's last row ``last`` (up to the time ``until``, s; all rows if
     None) by the sling's pendulum driven by the smoothed beam
     (:mod:`.events.sling_continuation`)."""
-    fit = smoothing_of(est)
-    cov = dict(fit.cov)
     cont = continued_sling({c: est[c].to_numpy(dtype=float) for c in
                             ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")},
-                           scene, last, cov["phi"][last][:3, :3])
+                           scene, last, smoothing_of(est).cov["phi"][last][:3, :3])
     keep = np.ones(cont.rows.size, bool) if until is None else (
         est["t"].to_numpy(dtype=float)[cont.rows] <= until)
-    rows = cont.rows[keep]
-    out = est.copy()
-    phi_cov = np.array(cov["phi"], dtype=float, copy=True)
-    phi_cov[rows] = 0.0
-    phi_cov[rows, :3, :3] = cont.cov[keep]
-    cov["phi"] = phi_cov
-    with_smoothing(out, fit.replace(cov=cov))
-    for j, (suffix, values) in enumerate((("", cont.phi), ("_d", cont.phi_d),
-                                          ("_dd", cont.phi_dd))):
-        out.loc[out.index[rows], "phi" + suffix] = values[keep]
-        out.loc[out.index[rows], "phi" + suffix + "_sd"] = np.sqrt(cont.cov[keep, j, j])
-    return out
+    return with_angle_rows(est, "phi", cont.rows[keep],
+                           (cont.phi[keep], cont.phi_d[keep], cont.phi_dd[keep]),
+                           cont.cov[keep])
 
 
 def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFrame,

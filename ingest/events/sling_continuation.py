@@ -19,15 +19,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
+from trebuchet.ingest.events.driven_pendulum import driven_pendulum
 from trebuchet.model.dynamics import sling_pendulum_phi_dd
 from trebuchet.model.scene import Scene
 
 __all__ = ["SlingContinuation", "continued_sling"]
-
-#: Starting states drawn for the sd (a fixed seed: the same log gives the same sd).
-DRAWS = 24
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,56 +41,19 @@ class SlingContinuation:
     start: int
 
 
-def _driver(t: np.ndarray, theta: np.ndarray, theta_d: np.ndarray, theta_dd: np.ndarray):
-    """θ, θ̇, θ̈ at any time between the rows: θ̈ linear between rows, θ̇ and θ from the
-    smoother's values at the rows by the same linear interpolation (the rows are at most
-    one frame apart, where the smoother's own model is locally cubic)."""
-    def at(s: float) -> tuple[float, float, float]:
-        return (float(np.interp(s, t, theta)), float(np.interp(s, t, theta_d)),
-                float(np.interp(s, t, theta_dd)))
-    return at
-
-
 def continued_sling(est: dict[str, np.ndarray], scene: Scene, last: int,
                     cov_phi: np.ndarray, seed: int = 20261125) -> SlingContinuation:
     """φ carried on from row ``last`` (the sling track's last valid row) to the end of
     ``est`` (a smoother's output: ``t`` s, ``theta`` rad, ``theta_d`` rad/s, ``theta_dd``
     rad/s², ``phi``, ``phi_d`` at row ``last``) by the sling's pendulum equation driven by
-    the smoothed beam; ``cov_phi`` (3, 3): the smoother's covariance of (φ, φ̇, φ̈) at that
-    row (SI). The mean is the integration from the smoothed state, the covariance that of
-    ``DRAWS`` integrations from states drawn with it."""
+    the smoothed beam (:func:`.driven_pendulum.driven_pendulum`); ``cov_phi`` (3, 3): the
+    smoother's covariance of (φ, φ̇, φ̈) at that row (SI)."""
     e, g = scene.engine, scene.g
-    t = np.asarray(est["t"], dtype=float)
-    theta, theta_d, theta_dd = (np.asarray(est[c], dtype=float)
-                                for c in ("theta", "theta_d", "theta_dd"))
-    rows = np.arange(last + 1, t.size)
-    usable = np.isfinite(theta) & np.isfinite(theta_d) & np.isfinite(theta_dd)
-    rows = rows[usable[rows]]
-    if rows.size == 0:
-        empty = np.zeros(0)
-        return SlingContinuation(rows, empty, empty, empty, np.zeros((0, 3, 3)), last)
-    at = _driver(t[usable], theta[usable], theta_d[usable], theta_dd[usable])
-
-    start = np.array([float(est["phi"][last]), float(est["phi_d"][last])])
-    c2 = np.nan_to_num(np.asarray(cov_phi, dtype=float)[:2, :2])
-    rng = np.random.default_rng(seed)
-    draws = rng.multivariate_normal(start, 0.5 * (c2 + c2.T), size=DRAWS, method="eigh")
-    y0 = np.vstack([start, draws])  # (1 + DRAWS, 2): the smoothed start first
-    m = y0.shape[0]
-
-    def rate(s: float, y: np.ndarray) -> np.ndarray:
-        """(φ, φ̇) of every member, stacked: φ̇ and the pendulum's φ̈."""
-        th, th_d, th_dd = at(s)
-        return np.concatenate([y[m:], sling_pendulum_phi_dd(th, th_d, th_dd, y[:m], e, g, np)])
-
-    sol = solve_ivp(rate, (t[last], t[rows[-1]]), y0.T.ravel(), t_eval=t[rows],
-                    method="DOP853", rtol=1e-9, atol=1e-12)
-    y = np.full((2 * m, rows.size), np.nan)
-    y[:, : sol.y.shape[1]] = sol.y
-    phi, phi_d = y[:m], y[m:]  # (members, k)
-    acc = sling_pendulum_phi_dd(theta[rows], theta_d[rows], theta_dd[rows], phi, e, g, np)
-    runs = np.stack([phi, phi_d, acc], axis=1)  # (members, 3, k)
-    mean, ens = runs[0], runs[1:]
-    dev = ens - ens.mean(axis=0)
-    cov = np.einsum("dik,djk->kij", dev, dev) / (DRAWS - 1)
-    return SlingContinuation(rows, mean[0], mean[1], mean[2], cov, last)
+    t, theta, theta_d, theta_dd = (np.asarray(est[c], dtype=float)
+                                   for c in ("t", "theta", "theta_d", "theta_dd"))
+    run = driven_pendulum(
+        t, theta, theta_d, theta_dd, last,
+        np.array([float(est["phi"][last]), float(est["phi_d"][last])]), cov_phi,
+        lambda th, th_d, th_dd, phi: sling_pendulum_phi_dd(th, th_d, th_dd, phi, e, g, np),
+        seed=seed)
+    return SlingContinuation(run.rows, run.angle, run.rate, run.acc, run.cov, run.start)

@@ -20,17 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.integrate import solve_ivp
 
-from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
+from trebuchet.ingest.events.driven_pendulum import driven_pendulum
+from trebuchet.ingest.smoothing.result import smoothing_of, with_angle_rows, with_smoothing
 from trebuchet.model.dynamics import counterweight_pendulum_psi_dd
 from trebuchet.model.scene import Scene
 
 __all__ = ["CounterweightContinuation", "continued_counterweight",
            "with_continued_counterweight", "MIN_FRAMES_LOST"]
 
-#: Starting states drawn for the sd (a fixed seed: the same log gives the same sd).
-DRAWS = 24
 #: The counterweight's track must end at least this many frames before the beam's.
 MIN_FRAMES_LOST = 3
 
@@ -55,51 +53,22 @@ def continued_counterweight(est: dict[str, np.ndarray], scene: Scene, last: int,
     """ψ carried on from row ``last`` (the counterweight track's last valid row) over the
     rows after it where the smoothed beam is known (``est``: ``t`` s, ``theta`` rad,
     ``theta_d`` rad/s, ``theta_dd`` and its sd ``theta_dd_sd`` rad/s², ``psi`` and ``psi_d``
-    at row ``last``) by the
-    counterweight's pendulum equation; ``cov_psi`` (3, 3): the smoother's covariance of
-    (ψ, ψ̇, ψ̈) at that row (SI). The mean is the integration from the smoothed state, the
-    covariance that of ``DRAWS`` integrations from states drawn with it."""
+    at row ``last``) by the counterweight's pendulum equation, each member of the ensemble
+    driven by θ̈ shifted by a drawn multiple of its sd
+    (:func:`~trebuchet.ingest.events.driven_pendulum.driven_pendulum`); ``cov_psi``
+    (3, 3): the smoother's covariance of (ψ, ψ̇, ψ̈) at that row (SI)."""
     e, g = scene.engine, scene.g
-    t = np.asarray(est["t"], dtype=float)
-    theta, theta_d, theta_dd, theta_dd_sd = (np.asarray(est[c], dtype=float) for c in
-                                             ("theta", "theta_d", "theta_dd", "theta_dd_sd"))
-    usable = (np.isfinite(theta) & np.isfinite(theta_d) & np.isfinite(theta_dd)
-              & np.isfinite(theta_dd_sd))
-    rows = np.arange(last + 1, t.size)
-    rows = rows[usable[rows]]
-    if rows.size == 0:
-        empty = np.zeros(0)
-        return CounterweightContinuation(rows, empty, empty, empty, np.zeros((0, 3, 3)), last)
-    tu, thu, thdu, thddu, sdu = (v[usable] for v in (t, theta, theta_d, theta_dd,
-                                                    theta_dd_sd))
-    start = np.array([float(est["psi"][last]), float(est["psi_d"][last])])
-    c2 = np.nan_to_num(np.asarray(cov_psi, dtype=float)[:2, :2])
-    rng = np.random.default_rng(seed)
-    draws = rng.multivariate_normal(start, 0.5 * (c2 + c2.T), size=DRAWS, method="eigh")
-    y0 = np.vstack([start, draws])  # (1 + DRAWS, 2): the smoothed start first
-    m = y0.shape[0]
-    shift = np.r_[0.0, rng.standard_normal(DRAWS)]  # θ̈'s error, in its sd, per member
-
-    def rate(s: float, y: np.ndarray) -> np.ndarray:
-        """(ψ, ψ̇) of every member, stacked: ψ̇ and the pendulum's ψ̈ (the beam's θ, θ̇, θ̈
-        linear between the rows, at most a frame apart)."""
-        th, th_d, th_dd, sd = (float(np.interp(s, tu, v)) for v in (thu, thdu, thddu, sdu))
-        return np.concatenate([y[m:], counterweight_pendulum_psi_dd(
-            th, th_d, th_dd + shift * sd, y[:m], e, g, np)])
-
-    sol = solve_ivp(rate, (t[last], t[rows[-1]]), y0.T.ravel(), t_eval=t[rows],
-                    method="DOP853", rtol=1e-9, atol=1e-12)
-    y = np.full((2 * m, rows.size), np.nan)
-    y[:, : sol.y.shape[1]] = sol.y
-    psi, psi_d = y[:m], y[m:]
-    acc = counterweight_pendulum_psi_dd(
-        theta[rows], theta_d[rows], theta_dd[rows] + shift[:, None] * theta_dd_sd[rows], psi,
-        e, g, np)
-    runs = np.stack([psi, psi_d, acc], axis=1)  # (members, 3, k)
-    mean, ens = runs[0], runs[1:]
-    dev = ens - ens.mean(axis=0)
-    cov = np.einsum("dik,djk->kij", dev, dev) / (DRAWS - 1)
-    return CounterweightContinuation(rows, mean[0], mean[1], mean[2], cov, last)
+    t, theta, theta_d, theta_dd, theta_dd_sd = (
+        np.asarray(est[c], dtype=float)
+        for c in ("t", "theta", "theta_d", "theta_dd", "theta_dd_sd"))
+    run = driven_pendulum(
+        t, theta, theta_d, theta_dd, last,
+        np.array([float(est["psi"][last]), float(est["psi_d"][last])]), cov_psi,
+        lambda th, th_d, th_dd, psi: counterweight_pendulum_psi_dd(th, th_d, th_dd, psi, e,
+                                                                   g, np),
+        theta_dd_sd=theta_dd_sd, seed=seed)
+    return CounterweightContinuation(run.rows, run.angle, run.rate, run.acc, run.cov,
+                                     run.start)
 
 
 def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.ndarray
@@ -117,28 +86,19 @@ def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.nd
             or len(psi_log) != len(est) or beam[-1] - have[-1] < MIN_FRAMES_LOST):
         return est
     last = int(have[-1])
-    fit = smoothing_of(est)
-    cov = dict(fit.cov)
     cont = continued_counterweight(
         {c: est[c].to_numpy(dtype=float) for c in ("t", "theta", "theta_d", "theta_dd",
                                                    "theta_dd_sd", "psi", "psi_d")},
-        scene, last, np.asarray(cov["psi"][last])[:3, :3])
+        scene, last, np.asarray(smoothing_of(est).cov["psi"][last])[:3, :3])
     rows = cont.rows[np.isfinite(cont.psi)]
     if rows.size == 0:
         return est
     keep = np.isin(cont.rows, rows)
-    out = est.copy()
-    psi_cov = np.array(cov["psi"], dtype=float, copy=True)
-    psi_cov[rows] = 0.0
-    psi_cov[rows, :3, :3] = cont.cov[keep]
-    cov["psi"] = psi_cov
-    for j, (suffix, values) in enumerate((("", cont.psi), ("_d", cont.psi_d),
-                                          ("_dd", cont.psi_dd))):
-        out.loc[out.index[rows], "psi" + suffix] = values[keep]
-        out.loc[out.index[rows], "psi" + suffix + "_sd"] = np.sqrt(cont.cov[keep, j, j])
+    out = with_angle_rows(est, "psi", rows, (cont.psi[keep], cont.psi_d[keep],
+                                             cont.psi_dd[keep]), cont.cov[keep])
     t = est["t"].to_numpy(dtype=float)
     note = (f"the counterweight's track ends at {t[last]:.4f} s while the beam's goes on to "
             f"{t[rows[-1]]:.4f} s: psi is carried on by the counterweight's pendulum driven "
             "by the smoothed beam (sd at the end "
             f"{np.degrees(np.sqrt(cont.cov[keep][-1, 0, 0])):.2g} deg)")
-    return with_smoothing(out, fit.replace(cov=cov).noted(note))
+    return with_smoothing(out, smoothing_of(out).noted(note))

@@ -139,6 +139,27 @@ def smoothing_of(est: pd.DataFrame) -> Smoothing:
     return found
 
 
+def with_angle_rows(est: pd.DataFrame, angle: str, rows: np.ndarray,
+                    values: tuple[np.ndarray, np.ndarray, np.ndarray], cov: np.ndarray
+                    ) -> pd.DataFrame:
+    """A copy of the smoothed ``est`` whose ``angle`` (rad), its rate (rad/s) and
+    acceleration (rad/s²) on the rows at positions ``rows`` are ``values`` (each (k,)),
+    with their sd and the smoothing's ``cov[angle]`` there from ``cov`` (k, 3, 3) (the
+    rest of those rows' covariance, a jerk's, zero): where a pendulum carries an angle on
+    past its track."""
+    fit = smoothing_of(est)
+    covs = dict(fit.cov)
+    full = np.array(covs[angle], dtype=float, copy=True)
+    full[rows] = 0.0
+    full[rows, :3, :3] = cov
+    covs[angle] = full
+    out = est.copy()
+    for j, suffix in enumerate(("", "_d", "_dd")):
+        out.loc[out.index[rows], angle + suffix] = values[j]
+        out.loc[out.index[rows], angle + suffix + "_sd"] = np.sqrt(cov[:, j, j])
+    return with_smoothing(out, fit.replace(cov=covs))
+
+
 def with_smoothing(est: pd.DataFrame, smoothing: Smoothing) -> pd.DataFrame:
     """``est`` (changed in place and returned) carrying ``smoothing`` and its events."""
     est.attrs["smoothing"] = smoothing
