@@ -85,7 +85,8 @@ def engine_namespace(q: Sequence[Any], fixed: bool) -> SimpleNamespace:
     return SimpleNamespace(L1=v["L1"], L2=v["L2"], L_CM=v["L_CM"], L3=v["L3"], L4=v["L4"],
                            m_b=v["m_b"], M=v["M"], m=v["m"], I=v["I"],
                            counterweight_offset=v["offset"] if fixed else None,
-                           fixed_counterweight=fixed)
+                           fixed_counterweight=fixed, pivot_friction=0.0, hinge_friction=0.0,
+                           friction_rate=1.0)
 
 
 #: How closely a generated Jacobian matches the central difference (relative to its peak).

@@ -33,8 +33,8 @@ def lift_off_margin(y: Any, e: Engine, g: float, H: float) -> float:
     """Phase I: the trough's normal force over the projectile's weight, ``F_N/(m g)``
     (dimensionless; paper, eq. (16) with ``F_N = m g − F_S·e_y``); lift-off where it falls
     through 0."""
-    th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
-    ph, _, th_dd, _, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H, math)
+    m = dyn.phase_motion(1, y, e, g, H, math)
+    th, ph, th_d, th_dd = m[0], m[2], m[3], m[6]
     f, gg = dyn.trough_f_g(th, ph, e, math)
     return 1.0 - e.L1 * (f * th_dd + gg * th_d * th_d) * math.tan(ph) / g
 
