@@ -34,7 +34,12 @@ from typing import Any
 import numpy as np
 
 from trebuchet.model.forces import joint_forces_xy
-from trebuchet.model.friction import friction_couples, friction_generalised_forces, has_friction
+from trebuchet.model.friction import (
+    friction_couples,
+    friction_generalised_forces,
+    has_friction,
+    loss_powers,
+)
 from trebuchet.model.kinematics import trough_f_g, trough_phi_d, trough_phi_dd, trough_sling_angle
 from trebuchet.model.scene import Engine
 
@@ -46,7 +51,13 @@ __all__ = [
     "trough_phi_dd",
     "phase_accelerations",
     "friction_forces",
+    "friction_pieces",
+    "friction_newton_step",
+    "friction_start",
+    "friction_result",
     "phase_motion",
+    "motion_under",
+    "state_derivative_under",
     "accelerations_phase1",
     "accelerations_phase2",
     "accelerations_phase3",
@@ -204,20 +215,16 @@ def _unit_response(kind: int, th: Any, ps: Any, ph: Any, e: Engine, H: float, li
 FRICTION_NEWTON_STEPS = 3
 
 
-def friction_forces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
-                    e: Engine, g: float, H: float, lib: ModuleType = np
-                    ) -> tuple[Any, Any, Any, Any]:
-    """``Q_θ``, ``Q_ψ`` (generalised forces) and ``τ_P``, ``τ_H`` (the couples), N m, of the
-    bearings' friction in phase ``kind`` at the given angles and rates.
-
-    The couples are ``τ_P = a_P |F_R|``, ``τ_H = a_H |F_H|`` with ``a_P = μ_P r_P s(θ̇)``,
-    ``a_H = μ_H r_H s(ψ̇ − θ̇)`` (:func:`~trebuchet.model.friction.friction_couples`), and the
-    loads follow the accelerations the couples cause: with ``n = (|F_R|, |F_H|)``,
-    ``F(n) = F₀ + n_R ∂F/∂n_R + n_H ∂F/∂n_H`` exactly (F₀ the frictionless loads,
-    the slopes from :func:`_unit_response` through ``Q_θ = −a_P n_R + a_H n_H``,
-    ``Q_ψ = −a_H n_H``), and ``n = (|F_R(n)|, |F_H(n)|)`` is solved by Newton's method from
-    the frictionless magnitudes. No branch depends on the values: the same code runs on
-    floats, arrays and sympy symbols (the FMU's C is generated from it)."""
+def friction_pieces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
+                    e: Engine, g: float, H: float, lib: ModuleType = np) -> tuple:
+    """What the couples of the bearings' friction depend on, in phase ``kind`` at the given
+    angles (rad) and rates (rad/s): ``a_P = μ_P r_P s(θ̇)``, ``a_H = μ_H r_H s(ψ̇ − θ̇)`` (m),
+    the frictionless loads ``F_R₀``, ``F_H₀`` (N) and their slopes in the load magnitudes
+    ``n = (|F_R|, |F_H|)``: ``∂F_R/∂n_R``, ``∂F_R/∂n_H``, ``∂F_H/∂n_R``, ``∂F_H/∂n_H``
+    (dimensionless), 14 numbers in that order. Loads are affine in the accelerations and
+    these in the couples' generalised forces ``Q_θ = −a_P n_R + a_H n_H``, ``Q_ψ = −a_H n_H``,
+    so ``F(n) = F₀ + n_R ∂F/∂n_R + n_H ∂F/∂n_H`` exactly; the slopes come from
+    :func:`_unit_response`."""
     a_P, a_H = friction_couples(1.0, 1.0, th_d, ps_d, e, lib)
     ph0, ph_d0, th_dd, ps_dd, ph_dd = phase_accelerations(kind, th, ps, ph, th_d, ps_d, ph_d, e,
                                                           g, H, lib)
@@ -226,24 +233,57 @@ def friction_forces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, 
     Rt, Ht = _unit_response(kind, th, ps, ph, e, H, lib, 1.0, 0.0)
     Rp, Hp = _unit_response(kind, th, ps, ph, e, H, lib, 0.0, 1.0)
     # ∂F/∂n_R = −a_P ∂F/∂Q_θ;  ∂F/∂n_H = a_H (∂F/∂Q_θ − ∂F/∂Q_ψ)
-    R_nR = (-a_P * Rt[0], -a_P * Rt[1])
-    R_nH = (a_H * (Rt[0] - Rp[0]), a_H * (Rt[1] - Rp[1]))
-    H_nR = (-a_P * Ht[0], -a_P * Ht[1])
-    H_nH = (a_H * (Ht[0] - Hp[0]), a_H * (Ht[1] - Hp[1]))
-    n_R = lib.sqrt(R0[0] * R0[0] + R0[1] * R0[1])
-    n_H = lib.sqrt(H0[0] * H0[0] + H0[1] * H0[1])
+    return (a_P, a_H, R0[0], R0[1], H0[0], H0[1],
+            -a_P * Rt[0], -a_P * Rt[1], a_H * (Rt[0] - Rp[0]), a_H * (Rt[1] - Rp[1]),
+            -a_P * Ht[0], -a_P * Ht[1], a_H * (Ht[0] - Hp[0]), a_H * (Ht[1] - Hp[1]))
+
+
+def friction_newton_step(p: tuple, n_R: Any, n_H: Any, lib: ModuleType = np
+                         ) -> tuple[Any, Any]:
+    """One Newton step on ``n = (|F_R(n)|, |F_H(n)|)`` (N) with the pieces ``p`` of
+    :func:`friction_pieces`: residual ``f = (|F_R(n)| − n_R, |F_H(n)| − n_H)``, Jacobian
+    ``∂|F|/∂n = F̂·∂F/∂n − I``."""
+    Rx, Ry = p[2] + p[6] * n_R + p[8] * n_H, p[3] + p[7] * n_R + p[9] * n_H
+    Hx, Hy = p[4] + p[10] * n_R + p[12] * n_H, p[5] + p[11] * n_R + p[13] * n_H
+    abs_R, abs_H = lib.sqrt(Rx * Rx + Ry * Ry), lib.sqrt(Hx * Hx + Hy * Hy)
+    f_R, f_H = abs_R - n_R, abs_H - n_H
+    J11 = (Rx * p[6] + Ry * p[7]) / abs_R - 1.0
+    J12 = (Rx * p[8] + Ry * p[9]) / abs_R
+    J21 = (Hx * p[10] + Hy * p[11]) / abs_H
+    J22 = (Hx * p[12] + Hy * p[13]) / abs_H - 1.0
+    det = J11 * J22 - J12 * J21
+    return n_R - (f_R * J22 - f_H * J12) / det, n_H - (J11 * f_H - J21 * f_R) / det
+
+
+def friction_forces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
+                    e: Engine, g: float, H: float, lib: ModuleType = np
+                    ) -> tuple[Any, Any, Any, Any]:
+    """``Q_θ``, ``Q_ψ`` (generalised forces) and ``τ_P``, ``τ_H`` (the couples), N m, of the
+    bearings' friction in phase ``kind`` at the given angles and rates.
+
+    The couples are ``τ_P = a_P |F_R|``, ``τ_H = a_H |F_H|``, and the loads follow the
+    accelerations the couples cause: ``n = (|F_R(n)|, |F_H(n)|)`` is solved by
+    :data:`FRICTION_NEWTON_STEPS` steps of Newton's method (:func:`friction_newton_step`)
+    from the frictionless magnitudes, on the exact affine loads of :func:`friction_pieces`.
+    No branch depends on the values: the same code runs on floats and arrays, and the FMU's
+    C runs the same steps on functions generated from these."""
+    p = friction_pieces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
+    n_R, n_H = friction_start(p, lib)
     for _ in range(FRICTION_NEWTON_STEPS):
-        Rx, Ry = R0[0] + R_nR[0] * n_R + R_nH[0] * n_H, R0[1] + R_nR[1] * n_R + R_nH[1] * n_H
-        Hx, Hy = H0[0] + H_nR[0] * n_R + H_nH[0] * n_H, H0[1] + H_nR[1] * n_R + H_nH[1] * n_H
-        abs_R, abs_H = lib.sqrt(Rx * Rx + Ry * Ry), lib.sqrt(Hx * Hx + Hy * Hy)
-        f_R, f_H = abs_R - n_R, abs_H - n_H
-        J11 = (Rx * R_nR[0] + Ry * R_nR[1]) / abs_R - 1.0
-        J12 = (Rx * R_nH[0] + Ry * R_nH[1]) / abs_R
-        J21 = (Hx * H_nR[0] + Hy * H_nR[1]) / abs_H
-        J22 = (Hx * H_nH[0] + Hy * H_nH[1]) / abs_H - 1.0
-        det = J11 * J22 - J12 * J21
-        n_R, n_H = n_R - (f_R * J22 - f_H * J12) / det, n_H - (J11 * f_H - J21 * f_R) / det
-    tau_P, tau_H = a_P * n_R, a_H * n_H
+        n_R, n_H = friction_newton_step(p, n_R, n_H, lib)
+    return friction_result(p, n_R, n_H)
+
+
+def friction_start(p: tuple, lib: ModuleType = np) -> tuple[Any, Any]:
+    """Newton's start: the frictionless load magnitudes ``|F_R₀|``, ``|F_H₀|`` (N) of the
+    pieces ``p`` of :func:`friction_pieces`."""
+    return lib.sqrt(p[2] * p[2] + p[3] * p[3]), lib.sqrt(p[4] * p[4] + p[5] * p[5])
+
+
+def friction_result(p: tuple, n_R: Any, n_H: Any) -> tuple[Any, Any, Any, Any]:
+    """``Q_θ``, ``Q_ψ``, ``τ_P``, ``τ_H`` (N m) of the load magnitudes ``n_R``, ``n_H`` (N):
+    ``τ_P = a_P n_R``, ``τ_H = a_H n_H`` with ``a_P``, ``a_H`` the first two pieces."""
+    tau_P, tau_H = p[0] * n_R, p[1] * n_H
     Q_th, Q_ps = friction_generalised_forces(tau_P, tau_H)
     return Q_th, Q_ps, tau_P, tau_H
 
@@ -270,16 +310,26 @@ def phase_motion(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleTy
     ``y`` of phase ``kind`` (I: ``(θ, ψ, θ̇, ψ̇)`` with φ from the trough; II: ``(θ, ψ, φ, θ̇,
     ψ̇, φ̇)``; III: ``(θ, ψ, θ̇, ψ̇)``, φ and its derivatives NaN; anything after those, such
     as the integrators' lost energies, is ignored): the one dispatch from a phase to its
-    accelerations, with the bearings' friction where the engine has it, for floats
-    (compiled) and arrays alike."""
-    th, ps, ph, th_d, ps_d, ph_d = _state_angles(kind, y, lib)
-    Q_th = Q_ps = P_P = P_H = 0.0
+    accelerations, with the bearings' friction (:func:`friction_forces`) where the engine has
+    it, for floats (compiled) and arrays alike."""
+    Q_th = Q_ps = 0.0
     if has_friction(e):
-        Q_th, Q_ps, tau_P, tau_H = friction_forces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H,
-                                                   lib)
-        P_P, P_H = tau_P * th_d, tau_H * (ps_d - th_d)
+        th, ps, ph, th_d, ps_d, ph_d = _state_angles(kind, y, lib)
+        Q_th, Q_ps, _, _ = friction_forces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
+    return motion_under(kind, y, e, g, H, Q_th, Q_ps, lib)
+
+
+def motion_under(kind: int, y: Any, e: Engine, g: float, H: float, Q_th: Any, Q_ps: Any,
+                 lib: ModuleType = np
+                 ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any, Any, Any]:
+    """:func:`phase_motion` under given generalised forces of friction ``Q_th``, ``Q_ps`` (N m):
+    the couples are ``τ_H = −Q_ψ``, ``τ_P = −Q_θ − Q_ψ`` and the loss powers ``τ_P θ̇``,
+    ``τ_H (ψ̇ − θ̇)``."""
+    th, ps, ph, th_d, ps_d, ph_d = _state_angles(kind, y, lib)
     ph, ph_d, th_dd, ps_dd, ph_dd = phase_accelerations(kind, th, ps, ph, th_d, ps_d, ph_d, e, g,
                                                         H, lib, Q_th, Q_ps)
+    tau_H = -Q_ps
+    P_P, P_H = loss_powers(tau_H - Q_th, tau_H, th_d, ps_d)
     return th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd, P_P, P_H
 
 
@@ -320,7 +370,17 @@ def state_derivative(kind: int, y: Any, e: Engine, g: float, H: float, lib: Modu
     θ̈, ψ̈, ė_P, ė_H, 0, 0)``; the first ``len(y)`` are the state's. ``e_P``, ``e_H`` are the
     energies lost at pivot and hinge in units of :func:`energy_scale` (states only where the
     engine has friction: ``ė = P_loss / scale``)."""
-    m = phase_motion(kind, y, e, g, H, lib)
+    return _derivative(kind, y, phase_motion(kind, y, e, g, H, lib), e, g)
+
+
+def state_derivative_under(kind: int, y: Any, e: Engine, g: float, H: float, Q_th: Any,
+                           Q_ps: Any, lib: ModuleType = np
+                           ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any]:
+    """:func:`state_derivative` under given generalised forces of friction (N m)."""
+    return _derivative(kind, y, motion_under(kind, y, e, g, H, Q_th, Q_ps, lib), e, g)
+
+
+def _derivative(kind: int, y: Any, m: tuple, e: Engine, g: float) -> tuple:
     scale = energy_scale(e, g)
     loss_P, loss_H = m[9] / scale, m[10] / scale
     if kind == 2:
