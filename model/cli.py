@@ -37,10 +37,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _simulate(args: argparse.Namespace) -> int:
-    check_target(args.output)
+    check_target(args.output, inputs=[args.scene])
     scene = Scene.from_toml(args.scene)
     run = simulate(scene, rtol=args.accuracy, after_release=args.after_release, dt=args.dt)
-    write_csv(run, args.output)
+    write_csv(run, args.output, inputs=[args.scene])
     print(simulation_summary(run) + f"; {len(run)} rows -> {args.output}")
     return 0
 
@@ -75,7 +75,7 @@ def format_paper_table(table, markdown: bool = False) -> str:
 @cli_command
 def _paper(args: argparse.Namespace) -> int:
     if args.output:
-        check_target(args.output)
+        check_target(args.output, inputs=[args.scene])
     scene = Scene.from_toml(args.scene) if args.scene else None
     table = paper_comparison(scene)
     if scene is not None and scene.engine != Scene.from_toml(horsdal_scene_path()).engine:
@@ -83,5 +83,5 @@ def _paper(args: argparse.Namespace) -> int:
               "numbers are set beside the paper's all the same", file=sys.stderr)
     print(format_paper_table(table, markdown=args.markdown))
     if args.output:
-        write_csv(table, args.output)
+        write_csv(table, args.output, inputs=[args.scene])
     return 0

@@ -66,13 +66,13 @@ def _sweep(args: argparse.Namespace) -> int:
         raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
     options = SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release)
     options.check()
-    check_target(args.output)
+    check_target(args.output, inputs=[args.scene])
     base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
     table = sweep(base, grid, executor=args.scheduler, workers=args.workers,
                   progress=not args.quiet, options=options)
     seconds = time.perf_counter() - t0
-    write_csv(table, args.output)
+    write_csv(table, args.output, inputs=[args.scene])
     ok = int((table["status"] == STATUS_OK).sum())
     print(f"{len(table)} designs in {seconds:.1f} s: {ok} ok, {len(table) - ok} refused or "
           f"failed (reason in column 'error') -> {args.output}")

@@ -73,7 +73,8 @@ def report_scene(scene: Scene, out_dir: str | Path, *, dt: float = 1e-3,
              "counterweight's weight M g.")
     return write_report(out_dir, figures, tables, advisories,
                         title=f"trebuchet report: {Path(scene.source).name}",
-                        captions=CAPTIONS, intro=intro, csv_tables=["peaks"], progress=say)
+                        captions=CAPTIONS, intro=intro, csv_tables=["peaks"], progress=say,
+                        inputs=[scene.source])
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -93,7 +94,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 @cli_command
 def _report(args: argparse.Namespace) -> int:
     start = time.monotonic()
-    check_target(args.output, folder=True)
+    check_target(args.output, folder=True, inputs=[args.scene])
     scene = Scene.from_toml(args.scene)
     out = report_scene(scene, args.output, dt=args.dt,
                        progress=None if args.quiet else _stderr)
