@@ -8,7 +8,12 @@ import sys
 from trebuchet.errors import cli_command
 from trebuchet.model.paper import horsdal_scene_path, paper_comparison
 from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
+from trebuchet.model.simulate import (
+    DEFAULT_AFTER_RELEASE,
+    DEFAULT_RTOL,
+    MAX_AFTER_RELEASE,
+    simulate,
+)
 from trebuchet.model.sweep import accuracy_option, output_step
 from trebuchet.output import check_target, write_csv
 
@@ -19,12 +24,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--dt", type=output_step, default=1e-3,
-                   help="output step in s, up to 0.1 (default 0.001)")
+                   help="output step in s, 1e-6 to 0.1, at most 1,000,000 rows "
+                   "(default 0.001)")
     p.add_argument("--accuracy", "--rtol", dest="accuracy", default="default", type=accuracy_option,
                    help="fast, default, precise, or a relative tolerance such as 1e-8 "
                    f"(default: {DEFAULT_RTOL:g})")
     p.add_argument("--after-release", type=float, default=DEFAULT_AFTER_RELEASE,
-                   help=f"s of phase III to simulate (default {DEFAULT_AFTER_RELEASE:g})")
+                   help=f"s of phase III to simulate, 0 to {MAX_AFTER_RELEASE:g} "
+                   f"(default {DEFAULT_AFTER_RELEASE:g})")
     p.set_defaults(run=_simulate)
 
     p = sub.add_parser("paper", help="compare the model with every number the paper quotes",

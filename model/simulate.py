@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.errors import ModelValidityWarning, Option, TrebuchetInputError, warn_at_caller
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
@@ -209,8 +209,7 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     rtol = resolve_rtol(rtol)
     if after_release is None:
         after_release = DEFAULT_DRY_FIRE if scene.projectile == "none" else DEFAULT_AFTER_RELEASE
-    if not after_release >= 0.0:
-        raise TrebuchetInputError(f"after_release = {after_release:g} s: must not be negative")
+    check_output_size(after_release=after_release)
     e, g, H, s = scene.engine, scene.g, scene.start.H, scene.start
     phases: list[PhaseSolution] = []
     events: dict[str, float] = {}
@@ -389,10 +388,11 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     """
     rtol = resolve_rtol(rtol)
     times = None if t_eval is None else _checked_times(t_eval)
-    if times is None and not (math.isfinite(dt) and dt > 0.0):
-        raise TrebuchetInputError(f"dt = {dt:g} s: the output step must be a positive number "
-                                  "of seconds")
+    if times is None:
+        check_output_size(dt, after_release)
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
+    if times is None:
+        check_output_size(dt, span=traj.t_end)
     times = default_times(traj, dt) if times is None else times
     cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
     _refuse_non_finite(cols, scene)
@@ -427,7 +427,46 @@ def _checked_times(t_eval: Sequence[float] | np.ndarray) -> np.ndarray:
     if bad.size:
         raise TrebuchetInputError(f"t_eval[{bad[0]}] = {t[bad[0]]}: times must be finite "
                                   f"({bad.size} are not)")
+    if t.size > MAX_ROWS:
+        raise TrebuchetInputError(f"t_eval holds {t.size:,} times: at most {MAX_ROWS:,} output "
+                                  "rows in one run")
     return t
+
+
+# Bounds of what a shot can mean (docs/columns.md, "How many rows"): beyond them a run would
+# only fill the memory or never end (an output step of 1e-9 s asks for 11 GiB), so it is
+# refused in one line naming the option.
+MIN_DT = 1e-6  # s: the finest output step, finer than any camera or sensor filming a shot
+MAX_ROWS = 1_000_000  # output rows of one run: ~0.45 GB as a table, ~0.9 GB as CSV
+MAX_AFTER_RELEASE = MAX_SHOT  # s of phase III: the beam has swung back and forth long before
+
+
+def check_output_size(dt: float | None = None, after_release: float | None = None, *,
+                      span: float | None = None) -> None:
+    """Refuse an output step ``dt`` (s) or a phase III of ``after_release`` (s) beyond
+    :data:`MIN_DT`, :data:`MAX_AFTER_RELEASE` and :data:`MAX_ROWS` rows over ``span`` (s
+    simulated; before the run, ``after_release`` at least). None: not checked."""
+    if after_release is not None and not 0.0 <= after_release <= MAX_AFTER_RELEASE:
+        raise TrebuchetInputError(
+            f"{Option('after_release', after_release)} s: phase III is simulated for 0 to "
+            f"{MAX_AFTER_RELEASE:g} s (the beam has long swung back by then)")
+    if dt is None:
+        return
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise TrebuchetInputError(f"dt = {dt:g} s: the output step must be a positive number "
+                                  "of seconds")
+    if dt < MIN_DT:
+        raise TrebuchetInputError(f"{Option('dt', dt)} s: the output step must be at least "
+                                  f"{MIN_DT:g} s (finer than any camera or sensor)")
+    length = after_release if span is None else span
+    if length is not None and length / dt + 1 > MAX_ROWS:
+        step = length / (MAX_ROWS - 1)
+        unit = 10.0 ** (math.floor(math.log10(step)) - 1)
+        also = f" or a shorter {Option('after_release')}" if span is None else ""
+        raise TrebuchetInputError(
+            f"{Option('dt', dt)} s: {length / dt + 1:,.0f} output rows over the {length:.4g} s "
+            f"simulated, more than the {MAX_ROWS:,} of one run; give a step of at least "
+            f"{math.ceil(step / unit) * unit:.2g} s{also}")
 
 
 def slack_intervals(run: Mapping[str, Any]) -> list[tuple[float, float]]:

@@ -49,7 +49,7 @@ from tqdm.auto import tqdm
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.dynamics import trough_sling_angle
 from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
-from trebuchet.model.simulate import ACCURACY, resolve_rtol, simulate
+from trebuchet.model.simulate import ACCURACY, check_output_size, resolve_rtol, simulate
 
 __all__ = [
     "SUMMARY_COLUMNS",
@@ -110,6 +110,7 @@ class SimulationOptions:
         if self.after_release is not None and not self.after_release >= 0.0:
             raise TrebuchetInputError(f"after_release = {self.after_release:g} s: must not be "
                                       "negative")
+        check_output_size(self.dt, self.after_release)  # no design could run beyond these
 
 
 # --------------------------------------------------------------------------- command-line values

@@ -86,7 +86,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "all.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("-o", "--output", required=True, help="report directory to write")
-    p.add_argument("--dt", type=float, default=1e-3, help="output step in s (default 0.001)")
+    p.add_argument("--dt", type=float, default=1e-3,
+                   help="output step in s, 1e-6 to 0.1 (default 0.001)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(run=_report)
 
