@@ -6,14 +6,10 @@ import argparse
 import sys
 
 from trebuchet.errors import cli_command
+from trebuchet.model.output_size import MAX_AFTER_RELEASE
 from trebuchet.model.paper import horsdal_scene_path, paper_comparison
 from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import (
-    DEFAULT_AFTER_RELEASE,
-    DEFAULT_RTOL,
-    MAX_AFTER_RELEASE,
-    simulate,
-)
+from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
 from trebuchet.model.sweep import accuracy_option, output_step
 from trebuchet.output import check_target, write_csv
 

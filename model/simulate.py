@@ -20,13 +20,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning, Option, TrebuchetInputError, warn_at_caller
+from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
 from trebuchet.model.flight import flight_summary
 from trebuchet.model.frames import frame
 from trebuchet.model.loads import load_columns
+from trebuchet.model.output_size import MAX_ROWS, check_output_size
 from trebuchet.model.scene import Scene
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
@@ -431,42 +432,6 @@ def _checked_times(t_eval: Sequence[float] | np.ndarray) -> np.ndarray:
         raise TrebuchetInputError(f"t_eval holds {t.size:,} times: at most {MAX_ROWS:,} output "
                                   "rows in one run")
     return t
-
-
-# Bounds of what a shot can mean (docs/columns.md, "How many rows"): beyond them a run would
-# only fill the memory or never end (an output step of 1e-9 s asks for 11 GiB), so it is
-# refused in one line naming the option.
-MIN_DT = 1e-6  # s: the finest output step, finer than any camera or sensor filming a shot
-MAX_ROWS = 1_000_000  # output rows of one run: ~0.45 GB as a table, ~0.9 GB as CSV
-MAX_AFTER_RELEASE = MAX_SHOT  # s of phase III: the beam has swung back and forth long before
-
-
-def check_output_size(dt: float | None = None, after_release: float | None = None, *,
-                      span: float | None = None) -> None:
-    """Refuse an output step ``dt`` (s) or a phase III of ``after_release`` (s) beyond
-    :data:`MIN_DT`, :data:`MAX_AFTER_RELEASE` and :data:`MAX_ROWS` rows over ``span`` (s
-    simulated; before the run, ``after_release`` at least). None: not checked."""
-    if after_release is not None and not 0.0 <= after_release <= MAX_AFTER_RELEASE:
-        raise TrebuchetInputError(
-            f"{Option('after_release', after_release)} s: phase III is simulated for 0 to "
-            f"{MAX_AFTER_RELEASE:g} s (the beam has long swung back by then)")
-    if dt is None:
-        return
-    if not (math.isfinite(dt) and dt > 0.0):
-        raise TrebuchetInputError(f"dt = {dt:g} s: the output step must be a positive number "
-                                  "of seconds")
-    if dt < MIN_DT:
-        raise TrebuchetInputError(f"{Option('dt', dt)} s: the output step must be at least "
-                                  f"{MIN_DT:g} s (finer than any camera or sensor)")
-    length = after_release if span is None else span
-    if length is not None and length / dt + 1 > MAX_ROWS:
-        step = length / (MAX_ROWS - 1)
-        unit = 10.0 ** (math.floor(math.log10(step)) - 1)
-        also = f" or a shorter {Option('after_release')}" if span is None else ""
-        raise TrebuchetInputError(
-            f"{Option('dt', dt)} s: {length / dt + 1:,.0f} output rows over the {length:.4g} s "
-            f"simulated, more than the {MAX_ROWS:,} of one run; give a step of at least "
-            f"{math.ceil(step / unit) * unit:.2g} s{also}")
 
 
 def slack_intervals(run: Mapping[str, Any]) -> list[tuple[float, float]]:

@@ -48,8 +48,9 @@ from tqdm.auto import tqdm
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.dynamics import trough_sling_angle
+from trebuchet.model.output_size import check_output_size
 from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
-from trebuchet.model.simulate import ACCURACY, check_output_size, resolve_rtol, simulate
+from trebuchet.model.simulate import ACCURACY, resolve_rtol, simulate
 
 __all__ = [
     "SUMMARY_COLUMNS",

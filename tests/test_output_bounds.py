@@ -12,6 +12,7 @@ import pytest
 import trebuchet as tb
 from trebuchet.cli import main
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.model import output_size as size
 from trebuchet.model import simulate as sim
 
 from .conftest import HORSDAL
@@ -49,12 +50,12 @@ def test_rows_over_the_whole_shot_are_counted_once_it_is_known(horsdal):
 
 
 def test_the_bounds_themselves():
-    sim.check_output_size(sim.MIN_DT, span=0.5)  # 500,001 rows
-    sim.check_output_size(1e-3, sim.MAX_AFTER_RELEASE)
+    size.check_output_size(size.MIN_DT, span=0.5)  # 500,001 rows
+    size.check_output_size(1e-3, size.MAX_AFTER_RELEASE)
     with pytest.raises(TrebuchetInputError, match="step of at least 1.1e-06 s"):
-        sim.check_output_size(1e-6, span=1.0)  # 1,000,001 rows
+        size.check_output_size(1e-6, span=1.0)  # 1,000,001 rows
     with pytest.raises(TrebuchetInputError, match="t_eval holds 1,000,001 times"):
-        sim._checked_times(np.zeros(sim.MAX_ROWS + 1))
+        sim._checked_times(np.zeros(size.MAX_ROWS + 1))
 
 
 @pytest.mark.parametrize("argv, flag", [
