@@ -1,10 +1,11 @@
-"""Sub-commands of the FMU: ``trebuchet fmu build`` and ``trebuchet fmu crosscheck``."""
+"""Sub-commands of the FMU: ``trebuchet fmu build`` and ``trebuchet fmu crosscheck``.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): sympy, the code generator and
+fmpy load when a command runs."""
 
 from __future__ import annotations
 
 import argparse
-
-from trebuchet.output import check_target
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,6 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _build(args: argparse.Namespace) -> int:
     from trebuchet.fmu.build import build_fmu
+    from trebuchet.output import check_target
 
     check_target(args.output)
     path = build_fmu(args.output, fmi=args.fmi)
@@ -44,6 +46,7 @@ def _build(args: argparse.Namespace) -> int:
 
 def _crosscheck(args: argparse.Namespace) -> int:
     from trebuchet.fmu.crosscheck import write_crosscheck
+    from trebuchet.output import check_target
 
     check_target(args.output, folder=True)
     folder = write_crosscheck(args.fmu, args.output)

@@ -1,4 +1,9 @@
-"""Sub-command of the ingest room: ``trebuchet forces LOG --scene SCENE -o loads.csv``."""
+"""Sub-command of the ingest room: ``trebuchet forces LOG --scene SCENE -o loads.csv``.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the parser is built from
+:mod:`trebuchet.ingest.settings`; numpy, pandas and the reconstruction load when ``forces``
+runs.
+"""
 
 from __future__ import annotations
 
@@ -6,15 +11,13 @@ import argparse
 import math
 import sys
 import warnings
-
-import numpy as np
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from trebuchet.errors import TrebuchetInputError, cli_command
-from trebuchet.ingest.logs.result import read_log_info
-from trebuchet.ingest.reconstruct import FORMS, IMAGE_CALIBRATIONS, TROUGH, reconstruct
-from trebuchet.ingest.reconstruction import reconstruction_of
-from trebuchet.output import check_target, write_csv
+from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, TROUGH
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["register", "forces_summary", "parse_pairs", "add_log_arguments", "log_options",
            "add_reconstruct_arguments", "reconstruct_options", "EVENT_OPTIONS"]
@@ -171,7 +174,7 @@ def _fmt_time(value: float | None, sd: float | None = None) -> str:
     if value is None:
         return "none"
     text = f"{value:.4f} s"
-    if sd is not None and np.isfinite(sd) and sd > 0:
+    if sd is not None and math.isfinite(sd) and sd > 0:
         text += f" ± {sd:.4f}"
     return text
 
@@ -180,6 +183,11 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     """The summary the command prints: log, noise per angle, events, repairs, peak loads
     with their sd, advisories, validity findings and notes (e.g. a log without rest, whose
     ``t_shot`` counts from its first row)."""
+    import numpy as np
+
+    from trebuchet.ingest.logs.result import read_log_info
+    from trebuchet.ingest.reconstruction import reconstruction_of
+
     a = reconstruction_of(result)
     info = read_log_info(result)
     source, fmt, repairs = (("log", "table", ()) if info is None
@@ -220,6 +228,9 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
 
 @cli_command
 def _forces(args: argparse.Namespace) -> int:
+    from trebuchet.ingest.reconstruct import reconstruct
+    from trebuchet.output import check_target, write_csv
+
     check_target(args.output)
     options = reconstruct_options(args)
     with warnings.catch_warnings(record=True) as caught:

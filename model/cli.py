@@ -1,4 +1,8 @@
-"""Sub-commands of the model: ``simulate`` and ``paper``."""
+"""Sub-commands of the model: ``simulate`` and ``paper``.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): :func:`register` builds the
+parsers from :mod:`trebuchet.model.settings`; the simulator loads when a command runs.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +10,12 @@ import argparse
 import sys
 
 from trebuchet.errors import cli_command
-from trebuchet.model.paper import horsdal_scene_path, paper_comparison
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
-from trebuchet.model.sweep import accuracy_option, output_step
-from trebuchet.output import check_target, write_csv
+from trebuchet.model.settings import (
+    DEFAULT_AFTER_RELEASE,
+    DEFAULT_RTOL,
+    accuracy_option,
+    output_step,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -37,6 +42,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _simulate(args: argparse.Namespace) -> int:
+    from trebuchet.model.scene import Scene
+    from trebuchet.model.simulate import simulate
+    from trebuchet.output import check_target, write_csv
+
     check_target(args.output)
     scene = Scene.from_toml(args.scene)
     run = simulate(scene, rtol=args.accuracy, after_release=args.after_release, dt=args.dt)
@@ -74,6 +83,10 @@ def format_paper_table(table, markdown: bool = False) -> str:
 
 @cli_command
 def _paper(args: argparse.Namespace) -> int:
+    from trebuchet.model.paper import horsdal_scene_path, paper_comparison
+    from trebuchet.model.scene import Scene
+    from trebuchet.output import check_target, write_csv
+
     if args.output:
         check_target(args.output)
     scene = Scene.from_toml(args.scene) if args.scene else None

@@ -28,12 +28,10 @@ from trebuchet.model.flight import flight_summary
 from trebuchet.model.frames import frame
 from trebuchet.model.loads import load_columns
 from trebuchet.model.scene import Scene
+from trebuchet.model.settings import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
-DEFAULT_RTOL = 1e-10
-ACCURACY = {"fast": 1e-6, "default": DEFAULT_RTOL, "precise": 1e-12}  # named tolerances
-DEFAULT_AFTER_RELEASE = 0.5  # s of phase III simulated by default
 DEFAULT_DRY_FIRE = 1.5  # s simulated by default for a dry fire (phase III from the start)
 MAX_SHOT = 60.0  # s: a shot still in the trough or sling by then is refused
 #: Angles, rates and accelerations, in the row order of :meth:`Trajectory.angle_columns`.

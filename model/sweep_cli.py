@@ -6,6 +6,9 @@
 ``--grid KEY=VALUES`` names a scene key as ``section.key`` (units of the scene file) and its
 values as a comma list (``10000,19100,30000``) or ``start:stop:count`` (``count`` evenly spaced
 values, both ends included). The table is written whole or not at all.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the sweep loads when the
+command runs.
 """
 
 from __future__ import annotations
@@ -14,17 +17,7 @@ import argparse
 import time
 
 from trebuchet.errors import TrebuchetInputError, cli_command
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import ACCURACY
-from trebuchet.model.sweep import (
-    STATUS_OK,
-    SimulationOptions,
-    accuracy_option,
-    output_step,
-    parse_grid_option,
-    sweep,
-)
-from trebuchet.output import check_target, write_csv
+from trebuchet.model.settings import ACCURACY, accuracy_option, output_step
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -56,6 +49,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _sweep(args: argparse.Namespace) -> int:
+    from trebuchet.model.scene import Scene
+    from trebuchet.model.sweep import STATUS_OK, SimulationOptions, parse_grid_option, sweep
+    from trebuchet.output import check_target, write_csv
+
     grid: dict[str, tuple[float, ...]] = {}
     for text in args.grid:
         key, values = parse_grid_option(text)
@@ -77,3 +74,4 @@ def _sweep(args: argparse.Namespace) -> int:
     print(f"{len(table)} designs in {seconds:.1f} s: {ok} ok, {len(table) - ok} refused or "
           f"failed (reason in column 'error') -> {args.output}")
     return 0
+

@@ -1,5 +1,8 @@
 """The ``trebuchet report`` command: the paper's figures and key numbers for a simulated
-scene, as ``DIR/index.html`` with one PNG per figure, written whole or not at all."""
+scene, as ``DIR/index.html`` with one PNG per figure, written whole or not at all.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the model and the figures load
+when the command runs or :func:`report_scene` is called."""
 
 from __future__ import annotations
 
@@ -9,13 +12,12 @@ import time
 import warnings
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from trebuchet.errors import Option, TrebuchetInputError, cli_command, warn_at_caller
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import simulate
-from trebuchet.output import check_target
-from trebuchet.report.figures_numbers import event_table, flight_table, peak_table
-from trebuchet.report.page import write_report
+
+if TYPE_CHECKING:
+    from trebuchet.model.scene import Scene
 
 __all__ = ["register", "report_scene", "CAPTIONS"]
 
@@ -46,6 +48,10 @@ def report_scene(scene: Scene, out_dir: str | Path, *, dt: float = 1e-3,
     of :data:`trebuchet.report.figures.FIGURES`, ``peaks.csv``); ``dt`` is the output step, s.
     Warnings of the model (slack sling, ...) are shown in the report as advisories and
     passed on."""
+    from trebuchet.model.simulate import simulate
+    from trebuchet.report.figures_numbers import event_table, flight_table, peak_table
+    from trebuchet.report.page import write_report
+
     if not 0.0 < dt <= 0.1:
         raise TrebuchetInputError(f"{Option('dt', dt)}: the output step must lie in "
                                   "(0, 0.1] s")
@@ -92,6 +98,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _report(args: argparse.Namespace) -> int:
+    from trebuchet.model.scene import Scene
+    from trebuchet.output import check_target
+
     start = time.monotonic()
     check_target(args.output, folder=True)
     scene = Scene.from_toml(args.scene)
