@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from trebuchet.errors import TrebuchetInputError, cli_command
 from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, TROUGH
+from trebuchet.model.units import UNITS_HELP
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -36,6 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "write every force, torque and power with its standard deviation.")
     add_reconstruct_arguments(p)
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.add_argument("--units", action="store_true", help=UNITS_HELP)
+    p.add_argument("--quiet", action="store_true",
+                   help="no summary on stdout (warnings still go to stderr)")
     p.set_defaults(run=_forces)
 
 
@@ -202,8 +206,7 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     for key, label in (("trigger", "trigger"), ("lift_off", "lift-off"), ("release", "release")):
         lines.append(f"  {label:9s}{_fmt_time(ev.get(key), sd.get(key))}"
                      f"  ({src.get(key, '')})")
-    lines.append("repairs:" + (" none" if not repairs else ""))
-    lines += [f"  {r}" for r in repairs]
+    lines.append(f"repairs: {len(repairs)}, each in a warning" if repairs else "repairs: none")
     lines.append("peak loads (sd at the peak):")
     moving = result["phase"].to_numpy() > 0
     t = result["t"].to_numpy()
@@ -228,18 +231,22 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
 
 @cli_command
 def _forces(args: argparse.Namespace) -> int:
+    from trebuchet.csv_table import write_table
     from trebuchet.ingest.reconstruct import reconstruct
-    from trebuchet.output import check_target, write_csv
+    from trebuchet.model.units import column_units
+    from trebuchet.output import check_target
 
     check_target(args.output)
     options = reconstruct_options(args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = reconstruct(args.log, args.scene, **options)
-    write_csv(result, args.output)
-    summary = forces_summary(result, args.output)
-    print(summary)
-    for w in caught:  # what the summary does not already say
+    write_table(result, args.output,
+                units=column_units(list(result.columns)) if args.units else None)
+    summary = "" if args.quiet else forces_summary(result, args.output)
+    if summary:
+        print(summary)
+    for w in caught:  # on stderr, as compare's: what the summary does not already say
         text = str(w.message)
         if not any(part.strip() in text for part in summary.splitlines()[1:]
                    if len(part.strip()) > 20):

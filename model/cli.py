@@ -16,12 +16,14 @@ from trebuchet.model.settings import (
     accuracy_option,
     output_step,
 )
+from trebuchet.model.units import UNITS_HELP
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate", help="simulate a shot and write every force to CSV",
                        description="Simulate a shot of SCENE and write the contract's columns.")
     p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--units", action="store_true", help=UNITS_HELP)
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--dt", type=output_step, default=1e-3,
                    help="output step in s, up to 0.1 (default 0.001)")
@@ -42,14 +44,16 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _simulate(args: argparse.Namespace) -> int:
+    from trebuchet.csv_table import write_table
     from trebuchet.model.scene import Scene
     from trebuchet.model.simulate import simulate
-    from trebuchet.output import check_target, write_csv
+    from trebuchet.model.units import column_units
+    from trebuchet.output import check_target
 
     check_target(args.output)
     scene = Scene.from_toml(args.scene)
     run = simulate(scene, rtol=args.accuracy, after_release=args.after_release, dt=args.dt)
-    write_csv(run, args.output)
+    write_table(run, args.output, units=column_units(list(run.columns)) if args.units else None)
     print(simulation_summary(run) + f"; {len(run)} rows -> {args.output}")
     return 0
 
@@ -83,9 +87,10 @@ def format_paper_table(table, markdown: bool = False) -> str:
 
 @cli_command
 def _paper(args: argparse.Namespace) -> int:
+    from trebuchet.csv_table import write_table
     from trebuchet.model.paper import horsdal_scene_path, paper_comparison
     from trebuchet.model.scene import Scene
-    from trebuchet.output import check_target, write_csv
+    from trebuchet.output import check_target
 
     if args.output:
         check_target(args.output)
@@ -96,5 +101,5 @@ def _paper(args: argparse.Namespace) -> int:
               "numbers are set beside the paper's all the same", file=sys.stderr)
     print(format_paper_table(table, markdown=args.markdown))
     if args.output:
-        write_csv(table, args.output)
+        write_table(table, args.output)
     return 0
