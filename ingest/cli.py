@@ -13,7 +13,7 @@ import sys
 import warnings
 from typing import TYPE_CHECKING
 
-from trebuchet.errors import TrebuchetInputError, cli_command
+from trebuchet.errors import TrebuchetInputError, cli_command, command_line
 from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, TROUGH
 from trebuchet.model.units import UNITS_HELP
 
@@ -110,8 +110,11 @@ def log_options(args: argparse.Namespace) -> dict[str, object]:
     """The keywords of :func:`read_log` from the log arguments (``fps``, ``columns``,
     ``points``, and those given of ``time_unit``, ``angle_unit``, ``min_likelihood``,
     ``individual``, ``calibration``), each checked with an error naming the option."""
-    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
-        raise TrebuchetInputError(f"--fps {args.fps:g}: must be a positive frame rate")
+    if args.fps is not None:  # before the file is read, which would take the blame
+        from trebuchet.ingest.readers.timebase import check_fps
+
+        with command_line():
+            check_fps(args.fps)
     options: dict[str, object] = {
         "fps": args.fps,
         "columns": parse_pairs(args.column, "--column", ANGLE_NAMES, "right"),

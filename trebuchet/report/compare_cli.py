@@ -198,5 +198,6 @@ def _verdict_line(table: pd.DataFrame) -> str:
     if not differ:
         return (f"model and measurement agree within chance on all {len(table)} quantities"
                 f"{' (' + also[2:] + ')' if also else ''}; " + worst)
-    return (f"model and measurement differ beyond chance in {len(differ)} of {len(table)} "
-            f"quantities ({', '.join(differ)}{also}); " + worst)
+    many = f"all {len(table)}" if len(differ) == len(table) else f"{len(differ)} of {len(table)}"
+    return (f"model and measurement differ beyond chance in {many} quantities "
+            f"({', '.join(differ)}{also}); " + worst)

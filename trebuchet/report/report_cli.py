@@ -23,12 +23,12 @@ __all__ = ["register", "report_scene", "CAPTIONS"]
 
 CAPTIONS = {
     "tension": "Sling tension F_S and its component across the beam F_S⊥, in units of the "
-               "projectile's weight m g (paper: Fig. Tension).",
+               "projectile's weight m·g (paper: Fig. Tension).",
     "reactions": "a) hinge force |F_H|, b) pivot reaction |F_R|, c) its horizontal component, "
-                 "in units of the counterweight's weight M g (paper: Fig. Reaction).",
+                 "in units of the counterweight's weight M·g (paper: Fig. Reaction).",
     "bending": "Forces across the beam: a) the bending load |F_R⊥|, b) its parts from hinge, "
                "centre of mass and sling, c) their shares (paper: Fig. PerpReac).",
-    "loci": "Loci of F_R, F_M (M g) and of F_m, F_S (m g) (paper: Fig. ForceLocus).",
+    "loci": "Loci of F_R, F_M (M·g) and of F_m, F_S (m·g) (paper: Fig. ForceLocus).",
     "torque": "Torque on the beam: contributions of hinge, gravity at the centre of mass and "
               "spigot, and the total N, kN m (paper: Fig. Torque).",
     "configurations": "The engine at the greatest bending load and at release "
@@ -75,8 +75,9 @@ def report_scene(scene: Scene, out_dir: str | Path, *, dt: float = 1e-3,
     intro = (f"Simulated shot of {scene.source}: {len(run)} rows every {dt * 1e3:g} ms, "
              f"solver {diag.get('method', '?')} at rtol {diag.get('rtol', float('nan')):g}, "
              f"relative energy drift {diag.get('energy_drift_rel', float('nan')):.2g}. "
-             "Times after the trigger; forces over the projectile's weight m g or the "
-             "counterweight's weight M g.")
+             "Times after the trigger; forces over the projectile's weight m·g "
+             f"({scene.engine.m * scene.g / 1e3:.4g} kN) or the counterweight's weight M·g "
+             f"({scene.engine.M * scene.g / 1e3:.4g} kN).")
     return write_report(out_dir, figures, tables, advisories,
                         title=f"trebuchet report: {Path(scene.source).name}",
                         captions=CAPTIONS, intro=intro, csv_tables=["peaks"], progress=say)
