@@ -129,7 +129,7 @@ def test_the_first_screen_speaks_the_figures_units(demo):
                                    "outside ±2 sd", "chance allows", "verdict"]
     text = short.to_string()
     assert "m·g" in text and "M·g" in text and "kN m" in text and "kJ" in text
-    assert " kN)" in short.loc[0, "peak measured ± sd"]  # a force in m·g has kN beside it
+    assert "\u00a0kN)" in short.loc[0, "peak measured ± sd"]  # a force in m·g has kN beside it
     assert not any("e+" in str(v) for v in short.to_numpy().ravel()), text
     assert "%" in short.loc[0, "outside ±2 sd"]
     html = verdict_html(tables["trigger"], scene)

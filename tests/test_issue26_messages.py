@@ -105,4 +105,4 @@ def test_forces_in_weights_read_as_weights_with_kn_beside(horsdal):
     short, _ = verdict_table(_metrics(["agrees"] * 10), horsdal)
     by = dict(zip(short["quantity"], short["peak predicted"], strict=True))
     hinge = next(v for k, v in by.items() if k.startswith("|F_H|"))
-    assert "M·g (460 kN)" in hinge and "M g" not in " ".join(short.to_numpy().ravel())
+    assert "M·g (460\u00a0kN)" in hinge and "M g" not in " ".join(short.to_numpy().ravel())

@@ -49,7 +49,7 @@ def _kn(value_si: float, unit: str) -> str:
     """`` (497 kN)`` beside a force in m·g or M·g (which could be read as megagrams)."""
     if unit not in ("m·g", "M·g") or value_si is None or not math.isfinite(value_si):
         return ""
-    return f" ({_num(value_si / 1e3)} kN)"
+    return f" ({_num(value_si / 1e3)}\u00a0kN)"  # no break inside "(480 kN)"
 
 
 def _num(value: float, digits: int = 3) -> str:
