@@ -59,7 +59,8 @@ from bench.video.truth import engine_points  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 #: engine -> (scene file, camera distance in m)
-ENGINES = {"paper": ("horsdal_large.toml", 40.0), "backyard": ("backyard.toml", 6.6)}
+ENGINES = {"paper": ("horsdal_large.toml", 40.0), "backyard": ("backyard.toml", 6.6),
+           "small fast": ("small_fast.toml", 5.0)}
 SEEDS = (0, 1)
 TRACKERS = {"fixed": TrackerSettings(), "adaptive": TrackerSettings(update_rate=0.3)}
 FULL_TILTS = (0.0, 5.0, 10.0, 15.0)

@@ -1,0 +1,267 @@
+"""The loads table of a smoothed log: phases, loads with their sd, lift-off, checks.
+
+:func:`loads_from_smoothed` takes the output of
+:func:`~trebuchet.ingest.smoothing.smooth.smooth` (the angles, rates and accelerations with
+their covariance, the events the smoothing found or was given) to the frame of
+:func:`~trebuchet.ingest.reconstruct.reconstruct`: the phase of each row
+(:func:`shot_phases`), every load of :func:`trebuchet.model.loads.loads` on it
+(:func:`phase_loads`) and its sd (:mod:`.uncertainty`, plus the chance that a row next
+to an event lies in the other phase, :func:`event_variance`), lift-off where the trough's
+normal force reaches zero (:func:`detect_lift_off`), the resolution advisory and the
+geometry findings. Units: SI.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+from scipy.special import ndtr
+
+from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.advisory import resolution_advisories
+from trebuchet.ingest.events.lift_off import (
+    lift_off_sd,
+    lift_off_time,
+    offset_widened_sd,
+    rest_offset,
+)
+from trebuchet.ingest.reconstruct_options import ReconstructOptions, propagation_order
+from trebuchet.ingest.reconstruction import Reconstruction
+from trebuchet.ingest.scene_fit import geometry_findings
+from trebuchet.ingest.smoothing.result import smoothing_of
+from trebuchet.ingest.smoothing.smooth import ANGLES, SUFFIXES
+from trebuchet.ingest.uncertainty import propagate
+from trebuchet.model import dynamics as dyn
+from trebuchet.model.loads import loads
+from trebuchet.model.scene import Scene
+
+__all__ = ["STATE_COLUMNS", "shot_phases", "phase_loads", "state_frame", "event_variance",
+           "detect_lift_off", "loads_from_smoothed"]
+
+STATE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES]
+DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
+
+
+def shot_phases(t: np.ndarray, scene: Scene, trigger: float | None, lift_off: float | None,
+                release: float | None) -> np.ndarray:
+    """Phase of each row (int): 0 at rest (``t ≤ trigger``), then the scene's phases: 1 in
+    the trough until ``lift_off``, 2 in the sling until ``release``, 3 after (times in s,
+    the log's time; None = no such event in the log)."""
+    t = np.asarray(t, dtype=float)
+    first = scene.phases[0]
+    phase = np.full(t.size, first, dtype=np.int64)
+    if first == 1 and lift_off is not None:
+        phase[t > lift_off] = 2
+    if first != 3 and release is not None:
+        phase[t > release] = 3
+    if trigger is not None:
+        phase[t <= trigger] = 0
+    return phase
+
+
+def phase_loads(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
+              trough: str) -> pd.DataFrame:
+    """``loads`` on ``state`` with rest rows (phase 0) as the scene's first phase at zero
+    rates and accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ
+    in the trough."""
+    cols = {c: state[c].to_numpy(dtype=float) for c in state.columns}
+    rest = phase == 0
+    first = scene.phases[0]
+    run_phase = np.where(rest, first, phase)
+    if rest.any():
+        for col in DERIVATIVE_COLUMNS:
+            cols[col] = np.where(rest, 0.0, cols[col])
+    if trough == "constraint" and first == 1:
+        sel = run_phase == 1
+        if sel.any():
+            e, H = scene.engine, scene.start.H
+            th, th_d, th_dd = (cols[c][sel] for c in ("theta", "theta_d", "theta_dd"))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ph = dyn.trough_sling_angle(th, e, H)
+                ph_d = dyn.trough_phi_d(th, ph, th_d, e)
+                ph_dd = dyn.trough_phi_dd(th, ph, th_d, ph_d, th_dd, e)
+            for col, v in (("phi", ph), ("phi_d", ph_d), ("phi_dd", ph_dd)):
+                values = cols[col].copy()
+                values[sel] = v
+                cols[col] = values
+    cols["phase"] = run_phase
+    frame = pd.DataFrame(cols, index=state.index, copy=False)
+    try:
+        out = loads(frame, scene, form=form)
+    except ValueError as exc:  # phase-3 rows without a sling row before them
+        raise TrebuchetInputError(f"reconstruct: {exc}") from None
+    out["phase"] = phase
+    return out
+
+
+def state_frame(est: pd.DataFrame) -> pd.DataFrame:
+    """A plain frame (no attrs: pandas copies attrs on every operation) of t and the nine
+    smoothed quantities."""
+    cols = {"t": est["t"].to_numpy(dtype=float)}
+    cols |= {c: est[c].to_numpy(dtype=float) for c in STATE_COLUMNS}
+    return pd.DataFrame(cols)
+
+
+def _release_within_sling_track(t: np.ndarray, phi: np.ndarray, release: float) -> float:
+    """A detected release (s) before the first row after the sling track's end (that row
+    has no sling angle, so it is released); one at or after that row goes halfway from the
+    track's last frame to it. A release inside the last interval (the fitted time a
+    tracked stone leaves its sling's circle) stands."""
+    ok = np.flatnonzero(np.isfinite(phi))
+    if ok.size == 0 or ok[-1] >= t.size - 1:
+        return release
+    last = int(ok[-1])
+    if release < t[last + 1]:
+        return release
+    return float(0.5 * (t[last] + t[last + 1]))
+
+
+def event_variance(t: np.ndarray, event: float | None, sd: float,
+                    values: np.ndarray) -> np.ndarray:
+    """Variance (n, m) from the chance that a row lies on the other side of an event whose
+    time (s) has sd ``sd`` (s): ``P(other side) × (load across the event − load)²``, the
+    load across the event taken from the nearest row on the other side."""
+    var = np.zeros_like(values)
+    if event is None or not sd > 0:
+        return var
+    after = t > event
+    if after.all() or not after.any():
+        return var
+    i_before = int(np.flatnonzero(~after)[-1])
+    i_after = int(np.flatnonzero(after)[0])
+    near = np.abs(t - event) < 6.0 * sd
+    p_after = ndtr((t - event) / sd)
+    p_other = np.where(after, 1.0 - p_after, p_after)
+    other = np.where(after[:, None], values[i_before][None, :], values[i_after][None, :])
+    diff = np.nan_to_num(other - values)
+    var[near] = p_other[near, None] * diff[near] ** 2
+    return var
+
+
+def detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
+                     trigger: float | None, release: float | None,
+                     options: ReconstructOptions) -> tuple[float | None, float]:
+    """Lift-off (s, log time) and its sd (s) from the phase-I normal force on every row;
+    the sd widened by the shift the angles' common offset at rest (the log's θ at rest
+    against the scene's start θ: a camera's roll) makes (:func:`.events.lift_off.
+    offset_widened_sd`)."""
+    t = state["t"].to_numpy()
+    trial = shot_phases(t, scene, trigger, None, None)
+    trial[trial == 3] = 1
+    fn = phase_loads(state, trial, scene, options.form, options.trough)["F_N"].to_numpy()
+    when = lift_off_time(t, fn, trigger, release)
+    if when is None:
+        return None, float("nan")
+    i = int(np.clip(np.searchsorted(t, when), 1, t.size - 1))
+    rows = np.arange(max(i - 1, 0), min(i + 1, t.size))
+    sub = state.iloc[rows].reset_index(drop=True)
+    sub_cov = {a: c[rows] for a, c in cov.items()}
+    # the trial phases have no phase 3, so the rows are independent: one stacked call
+    prop = propagate(lambda s: phase_loads(s, np.resize(trial[rows], len(s)), scene,
+                                         options.form, options.trough),
+                     sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True)
+    sd = lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
+    offset = rest_offset(t, state["theta"].to_numpy(), trigger, scene.start.theta)
+    if np.isfinite(offset) and offset != 0.0:  # the angles' common offset moves F_N's zero
+        shifted = state.assign(theta=state["theta"].to_numpy() - offset)
+        fn_shifted = phase_loads(shifted, trial, scene, options.form, options.trough)["F_N"]
+        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted.to_numpy(), trigger,
+                                                        release))
+    return when, sd
+
+
+def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
+                        events: Mapping[str, float | None] | None = None,
+                        options: ReconstructOptions | None = None,
+                        release_sd: float | None = None,
+                        lines: np.ndarray | None = None) -> pd.DataFrame:
+    """Every load and its sd from the output of :func:`~trebuchet.ingest.smoothing.smooth.smooth`.
+
+    ``lines``: the file's line number of each row (``read_log``'s ``ReadLog.lines``); the
+    advisories and validity findings then name rows by them, as the reader's notes do.
+
+    ``events``: given event times (s, log time; None = no such event) overriding those in
+    the smoothing's and the lift-off detection; ``release_sd`` (s): sd of the
+    release time in ``est`` if known (default ``event_sd_frames`` frames). Returns the
+    frame of :func:`reconstruct` (without the log's own attrs).
+    """
+    options = options or ReconstructOptions()
+    given = dict(events or {})
+    t = est["t"].to_numpy(dtype=float)
+    state = state_frame(est)
+    fit = smoothing_of(est)
+    cov = {a: np.asarray(c, dtype=float)[:, :3, :3] for a, c in fit.cov.items()}
+    found = dict(fit.events)
+    sources = dict(fit.event_sources)
+    trigger = given["trigger"] if "trigger" in given else found.get("trigger")
+    release = given["release"] if "release" in given else found.get("release")
+    if scene.projectile == "none":
+        release = None
+    elif release is not None and "release" not in given:
+        release = _release_within_sling_track(t, est["phi"].to_numpy(dtype=float), release)
+    fps = 1.0 / float(np.median(np.diff(t)))
+    sd_event = options.event_sd_frames / fps
+    trigger_sd = fit.event_sd.get("trigger", sd_event)
+    event_sd = {"trigger": 0.0 if "trigger" in given or trigger is None else trigger_sd,
+                "release": 0.0 if "release" in given or release is None
+                else (sd_event if release_sd is None else release_sd)}
+    lift = None
+    event_sd["lift_off"] = float("nan")
+    if scene.projectile == "trough":
+        if "lift_off" in given:
+            lift = given["lift_off"]
+            sources["lift_off"] = "given" if lift is not None else "given as none"
+            event_sd["lift_off"] = 0.0
+        else:
+            lift, event_sd["lift_off"] = detect_lift_off(state, cov, scene, trigger, release,
+                                                          options)
+            sources["lift_off"] = ("trough normal force reaches zero" if lift is not None
+                                   else "the normal force never reaches zero before release")
+    else:
+        sources["lift_off"] = f"no trough (projectile {scene.projectile!r})"
+    phase = shot_phases(t, scene, trigger, lift, release)
+
+    prop = propagate(lambda s: phase_loads(s, phase, scene, options.form, options.trough),
+                     state, cov, order=propagation_order(options))
+    ev_var = (event_variance(t, trigger, event_sd["trigger"], prop.value)
+              + event_variance(t, release, event_sd["release"], prop.value))
+    sd = np.sqrt(prop.sd ** 2 + ev_var)
+
+    t_shot = t - (trigger if trigger is not None else t[0])
+    out: dict[str, np.ndarray] = {"t": t, "t_shot": t_shot, "phase": phase}
+    for c in STATE_COLUMNS:  # the smoothed angles (phase-I loads may use φ from θ)
+        out[c] = state[c].to_numpy()
+    for j, c in enumerate(prop.names):
+        out[c] = prop.value[:, j]
+    for c in STATE_COLUMNS:
+        out[c + "_sd"] = est[c + "_sd"].to_numpy(dtype=float)
+    for j, c in enumerate(prop.names):
+        out[c + "_sd"] = sd[:, j]
+    result = pd.DataFrame(out, index=est.index)
+
+    notes = list(fit.notes)
+    if trigger is None:
+        notes.append("no rest found at the start: t_shot counts from the first frame")
+    moving = phase > 0
+    noise = fit.noise
+    noise_deg = float(np.degrees(np.median([v["r_sd"] for v in noise.values()]))) \
+        if noise else float("nan")
+    col = {c: j for j, c in enumerate(prop.names)}
+    advice = resolution_advisories(
+        t, moving, {c: prop.value[:, j] for c, j in col.items()},
+        {c: sd[:, j] for c, j in col.items()}, {c: prop.by_order[:, :, j] for c, j in col.items()},
+        {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
+        options.resolution_fraction, lines=lines)
+    validity = geometry_findings(t, phase, result["theta"].to_numpy(), result["psi"].to_numpy(),
+                                 result["phi"].to_numpy(), scene,
+                                 tension=result["sling_tension"].to_numpy(),
+                                 tension_sd=result["sling_tension_sd"].to_numpy(), lines=lines)
+    events = {"trigger": trigger, "lift_off": lift, "release": release}
+    result.attrs["events"] = dict(events)
+    result.attrs["reconstruction"] = Reconstruction(
+        events=events, event_sd=event_sd, event_sources=sources, noise=noise,
+        form=options.form, trough=options.trough, model=fit.model, preset=options.preset,
+        fps=fps, advisories=advice, validity=validity, notes=notes)
+    return result
