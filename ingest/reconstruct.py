@@ -267,7 +267,9 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                       calibration=calibration)
     t_log, angles_log = validated_log(read.log, smoother_settings(options).min_frames)
     given = {} if events is None else checked_events(events, t_log, read.source)
-    shot = smoothed_with_release(read.log, angles_log, scene, options, given, q, r)
+    shot = smoothed_with_release(read.log, angles_log, scene, options, given, q, r,
+                                 plane=None if read.calibrated is None
+                                 else read.calibrated.plane)
     est = refined_estimate(shot.est, read, scene, angles_log)
     info = read_log_info(read.log)
     lines = info.lines if info is not None and info.lines is not None \

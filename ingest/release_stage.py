@@ -16,6 +16,7 @@ Where a source moves the release, the log is smoothed again with it given
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,11 +28,18 @@ from trebuchet.errors import ModelValidityWarning, warn_at_caller
 from trebuchet.ingest.events.release_model import (
     ModelRelease,
     ReleaseFit,
-    release_choice,
     release_from_model,
     scene_doubt,
 )
-from trebuchet.ingest.events.release_sources import TrackEndRelease, release_at_track_end
+from trebuchet.ingest.events.release_sources import (
+    ReleaseChoice,
+    SceneTiming,
+    TrackEnd,
+    TrackEndRelease,
+    covering_sd,
+    release_at_track_end,
+    release_without_track_end,
+)
 from trebuchet.ingest.events.sling_continuation import continued_sling
 from trebuchet.ingest.events.stone_flight import points_stone_release
 from trebuchet.ingest.logs.result import read_log_info
@@ -43,10 +51,11 @@ from trebuchet.ingest.reconstruct_options import (
 from trebuchet.ingest.smoothing.result import smoothing_of, with_angle_rows, with_smoothing
 from trebuchet.ingest.smoothing.smooth import ANGLES, smooth
 from trebuchet.model.scene import Scene
+from trebuchet.model.simulate import simulate
 
 __all__ = ["sling_track_end", "smooth_again", "model_release", "with_continued_sling",
            "release_by_the_equations", "lost_or_released", "smoothed_with_release",
-           "log_source", "Noise", "SmoothedShot"]
+           "log_source", "Noise", "SmoothedShot", "scene_timing"]
 
 #: The smoother's process and measurement noise as ``reconstruct`` takes them (rad, per
 #: angle or one number; None: maximum likelihood).
@@ -132,83 +141,98 @@ def with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
                            cont.cov[keep])
 
 
+def scene_timing(scene: Scene, trigger: float | None) -> SceneTiming:
+    """The scene's own release in the log's time: ``trigger`` (s) plus the simulated time
+    from trigger to release (:class:`~.events.release_sources.SceneTiming`)."""
+    if trigger is None:
+        return SceneTiming(None)
+    return SceneTiming(trigger + float(simulate(scene, t_eval=[0.0]).attrs["events"]["release"]))
+
+
+def _warned(log: pd.DataFrame, *sentences: str | None) -> None:
+    name = Path(log_source(log)).name
+    for sentence in sentences:
+        if sentence is not None:
+            warn_at_caller(f"{name}: {sentence}", ModelValidityWarning)
+
+
 def release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFrame,
                              scene: Scene, options: ReconstructOptions,
                              smooth_events: dict[str, float | None],
-                             q: Noise, r: Noise
-                             ) -> tuple[pd.DataFrame, float | None]:
-    """The smoothed log and the release's sd (s; None = the default) after checking the
-    release of ``est`` (smoothed with :func:`checking_settings`) against the engine's
-    equations (:mod:`.events.release_model`); where the model's release is used the log is
-    smoothed again with it given (the noise search's result of ``est`` standing in for
-    a new one: same log, only the release moves), its source says so and a note tells
-    both times; else it is smoothed again with the smoother's own release given.
-    A model that fits neither phase warns (ModelValidityWarning), and so do angles that
-    fit it near the release worse than their noise allows (:func:`.scene_doubt`; the
-    model's release is still used). ``angles_log`` (3, n): the log's θ, ψ, φ (rad) as
+                             q: Noise, r: Noise) -> SmoothedShot:
+    """The log smoothed with its release where the sling's track goes on past it: the
+    release of ``est`` (smoothed with :func:`checking_settings`, its jump search) checked
+    against the engine's equations (:mod:`.events.release_model`) by
+    :func:`~.events.release_sources.release_without_track_end`; the log is smoothed again
+    with the release taken given (the noise search's result of ``est`` standing in for a
+    new one: same log, only the release moves), its source and a note saying where it
+    came from. A release no source confirms, and angles that fit the equations near the
+    release worse than their noise allows (:func:`.scene_doubt`), warn
+    (ModelValidityWarning). ``angles_log`` (3, n): the log's θ, ψ, φ (rad) as
     :func:`~.smooth.validated_log` gave them."""
     settings = options.release_model
     found = smoothing_of(est).events
     fitted = model_release(angles_log, est, scene, settings)
     t = est["t"].to_numpy(dtype=float)
-    sd_free = options.event_sd_frames * float(np.median(np.diff(t)))
-    use, sentence = release_choice(fitted, found.get("release"), settings)
-    name = Path(log_source(log)).name
-    if sentence is not None and not use:
-        warn_at_caller(f"{name}: {sentence}", ModelValidityWarning)
+    frame = float(np.median(np.diff(t)))
+    choice = release_without_track_end(
+        fitted, found.get("release"), options.event_sd_frames * frame, frame,
+        scene_timing(scene, found.get("trigger")),
+        TrackEndRelease(max_misfit=settings.max_misfit))
     doubt = scene_doubt(fitted, settings)
-    if doubt is not None:
-        warn_at_caller(f"{name}: {doubt}", ModelValidityWarning)
-    if not use:
-        # the smoother's own release stands: the log smoothed again with it given
-        est = smooth_again(log, est, options, smooth_events, q, r, found.get("release"))
-        est = with_smoothing(est, smoothing_of(est).noted(doubt, sentence))
-        if sentence is not None:
-            return est, None
-        # agreed: the smoother's time stands, with the wider of the two sds
-        return est, (None if fitted.time is None or found.get("release") is None
-                     else max(sd_free, fitted.sd))
+    _warned(log, choice.warning, doubt)
+    release = None if not np.isfinite(choice.time) else choice.time
     notes = smoothing_of(est).notes
-    est = smooth_again(log, est, options, smooth_events, q, r, fitted.time)
-    again = smoothing_of(est)
-    again = again.replace(notes=notes).noted(*again.notes, sentence, doubt)
-    return with_smoothing(est, again.with_source("release", fitted.how)), fitted.sd
+    again = smooth_again(log, est, options, smooth_events, q, r, release)
+    fit = smoothing_of(again)
+    fit = fit.replace(notes=notes).noted(*fit.notes, choice.note, choice.warning, doubt)
+    if choice.kind == "equations":
+        fit = fit.with_source("release", choice.source)
+    sd = None if release is None else choice.sd
+    return SmoothedShot(with_smoothing(again, fit), sd, choice)
 
 
 def lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFrame,
                      scene: Scene, options: ReconstructOptions,
-                     smooth_events: dict[str, float | None],
-                     q: Noise, r: Noise,
-                     track_end: tuple[float, float]) -> tuple[pd.DataFrame, float]:
-    """The smoothed log and the release's sd (s) where the sling's track ends while θ and ψ
-    go on: a release only if the engine or the stone agrees
+                     smooth_events: dict[str, float | None], q: Noise, r: Noise,
+                     track_end: tuple[float, float],
+                     plane: pd.DataFrame | None = None) -> SmoothedShot:
+    """The log smoothed with its release where the sling's track ends while θ and ψ go on:
+    a release only if the engine or the stone agrees
     (:func:`.events.release_sources.release_at_track_end`). The sources: the engine's
     equations on θ and ψ (:func:`model_release`, φ carried on past the track by the
     sling's pendulum) and, for a point log, the tracked stone leaving its sling's circle
-    (:func:`.events.stone_flight.points_stone_release`). A track lost before the release
-    (the equations put it well after the track's end): the log is smoothed again with the
-    equations' release, φ carried on up to it (phase II keeps its sling loads), and a note
-    says so. A release before the track's end (the stone tracked in flight): smoothed
-    again with it, φ left out after it (a flying stone's direction is no sling angle).
-    Else the track's end stands (``est`` as it is). Sources that disagree warn
-    (ModelValidityWarning), naming the one taken."""
+    (:func:`.events.stone_flight.points_stone_release`, in the engine's plane where the
+    engine calibrated the image: ``plane``, m; else in the file's unit), unless the stone's
+    track ends where the tracker stood still (``ReadLog.held``). A track lost before the
+    release (the equations put it well after the track's end): the log is smoothed again
+    with the equations' release, φ carried on up to it (phase II keeps its sling loads),
+    and a note says so. A release before the track's end (the stone tracked in flight):
+    smoothed again with it, φ left out after it (a flying stone's direction is no sling
+    angle). Else the track's end stands (``est`` as it is). Sources that disagree, and a
+    track's end no source confirms, warn (ModelValidityWarning)."""
     settings = options.release_model
     phi = est["phi"].to_numpy(dtype=float)
     last = int(np.flatnonzero(np.isfinite(phi))[-1])
     t = est["t"].to_numpy(dtype=float)
     fitted = model_release(angles_log, with_continued_sling(est, scene, last), scene,
-                            settings)
+                           settings)
     info = read_log_info(log)
-    stone = (None if info is None or info.points is None
-             else points_stone_release(info.points, scene, float(t[last])))
-    choice = release_at_track_end(track_end, float(t[last]), float(t[last + 1]),
-                                  float(np.median(np.diff(t))), stone, fitted,
+    points = plane if plane is not None else None if info is None else info.points
+    stone = (None if points is None
+             else points_stone_release(points, scene, float(t[last])))
+    end = TrackEnd(track_end[0], track_end[1], float(t[last]), float(t[last + 1]),
+                   float(np.median(np.diff(t))), stone_held=_stone_held(info, float(t[last]),
+                                                                        float(t[last + 1])))
+    choice = release_at_track_end(end, stone, fitted,
+                                  scene_timing(scene, smoothing_of(est).events.get("trigger")),
                                   TrackEndRelease(max_misfit=settings.max_misfit))
-    if choice.warning is not None:
-        warn_at_caller(f"{Path(log_source(log)).name}: {choice.warning}", ModelValidityWarning)
+    if choice.kind == "lost":
+        choice = _lost_spread(choice, angles_log, est, scene, settings, last, end.frame)
+    _warned(log, choice.warning)
     if choice.kind == "track end" and choice.time == track_end[0]:
-        return with_smoothing(est, smoothing_of(est).noted(choice.note, choice.warning)), \
-            choice.sd
+        fit = smoothing_of(est).noted(choice.note, choice.warning)
+        return SmoothedShot(with_smoothing(est, fit), choice.sd, choice)
     if choice.kind == "lost":
         t_last = float(t[last])
         again = smooth_again(log, est, options, smooth_events, q, r, choice.time)
@@ -219,13 +243,59 @@ def lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFram
             f"sling until {choice.time:.4f} s (sd {1e3 * choice.sd:.1f} ms, "
             f"{1e3 * gap:.0f} ms later): the track was lost, not released; φ is carried on "
             "by the sling's pendulum up to the release", choice.note, choice.warning)
-        return with_smoothing(again, fit), choice.sd
+        return SmoothedShot(with_smoothing(again, fit), choice.sd, choice)
     cut = log.copy()
     cut.loc[cut["t"].to_numpy(dtype=float) > choice.time, "phi"] = np.nan
     again = smooth_again(cut, est, options, smooth_events, q, r, choice.time)
     fit = smoothing_of(again).with_source("release", choice.source).noted(choice.note,
                                                                           choice.warning)
-    return with_smoothing(again, fit), choice.sd
+    return SmoothedShot(with_smoothing(again, fit), choice.sd, choice)
+
+
+#: s: a lost track's release is sought again with the sling's track cut this much earlier
+#: (:func:`_lost_spread`).
+LOST_TRIM_S = 0.05
+
+
+def _lost_spread(choice: ReleaseChoice, angles_log: np.ndarray, est: pd.DataFrame,
+                 scene: Scene, settings: ReleaseFit, last: int, frame: float
+                 ) -> ReleaseChoice:
+    """A lost track's release (``choice``, from the engine's equations with φ carried on
+    by the sling's pendulum from the track's last row ``last``) with its sd widened by how
+    far the equations move it when the pendulum starts :data:`LOST_TRIM_S` s earlier
+    (:func:`~.events.release_sources.covering_sd`): the last frames of a track that is
+    being lost (a template sliding onto a frame member before it sticks there) may be off
+    the stone, and the carried-on φ with them (a stuck stone on the backyard engine: the
+    release 3 frames late with an sd of 0.9 frame). Where the widened sd exceeds a frame,
+    a warning says the release is uncertain."""
+    trim = max(3, int(round(LOST_TRIM_S / frame)))
+    first = int(np.flatnonzero(np.isfinite(est["phi"].to_numpy(dtype=float)))[0])
+    if last - trim <= first:
+        return choice
+    again = model_release(angles_log, with_continued_sling(est, scene, last - trim), scene,
+                          settings)
+    if again.time is None or not again.misfit <= settings.max_misfit:
+        return choice
+    sd = covering_sd(choice.sd, again.time - choice.time)
+    if sd <= frame:
+        return dataclasses.replace(choice, sd=sd)
+    return dataclasses.replace(choice, sd=sd, warning=(
+        f"the release is uncertain: the sling's track was lost and the engine's equations put "
+        f"the release at {choice.time:.4f} s, or at {again.time:.4f} s with the track cut "
+        f"{1e3 * trim * frame:.0f} ms earlier; it is taken with sd {1e3 * sd:.1f} ms "
+        f"({sd / frame:.1f} frames)"))
+
+
+def _stone_held(info, last: float, following: float) -> bool:
+    """Whether ``read_log`` left the stone's positions out as stuck (``ReadLog.held``) from
+    the sling track's end on: a run of the projectile that starts after the track's last
+    frame ``last`` (s) and no later than the frame after it, ``following`` (s), allowing a
+    few frames the stuck check trims at the run's start."""
+    if info is None:
+        return False
+    slack = 5.0 * (following - last)
+    return any(role == "projectile" and last < first <= following + slack
+               for role, first, _ in getattr(info, "held", ()))
 
 
 def log_source(log: pd.DataFrame) -> str:
@@ -237,20 +307,25 @@ def log_source(log: pd.DataFrame) -> str:
 @dataclass(frozen=True, eq=False)
 class SmoothedShot:
     """The release stage's result: ``est``, the log smoothed with its release (and the
-    smoothing's sources and notes saying where it came from), and ``release_sd``, the
-    release's sd (s; None: the default, ``ReconstructOptions.event_sd_frames``)."""
+    smoothing's sources and notes saying where it came from), ``release_sd``, the
+    release's sd (s; None: the default, ``ReconstructOptions.event_sd_frames``), and
+    ``choice``, the decision that placed it (None: given, seen leaving by ``read_log``, or
+    from the jump search alone)."""
 
     est: pd.DataFrame
     release_sd: float | None
+    choice: ReleaseChoice | None = None
 
 
 def smoothed_with_release(log: pd.DataFrame, angles_log: np.ndarray, scene: Scene,
                           options: ReconstructOptions, given: Mapping[str, float | None],
-                          q: Noise, r: Noise) -> SmoothedShot:
+                          q: Noise, r: Noise, plane: pd.DataFrame | None = None
+                          ) -> SmoothedShot:
     """``log`` smoothed with the release its sources agree on (module doc); ``angles_log``
     (3, n): its θ, ψ, φ (rad) as :func:`~.smooth.validated_log` gave them; ``given``: the
     events the caller gave (checked), of which the trigger and the release go to the
-    smoother."""
+    smoother; ``plane``: the tracked points in the engine's plane (m), where the engine
+    calibrated the image (the stone's flight is fitted there)."""
     smooth_events = {k: v for k, v in given.items() if k in ("trigger", "release")}
     track_end = None
     if ("release" not in given and options.release_at_track_end
@@ -280,11 +355,11 @@ def smoothed_with_release(log: pd.DataFrame, angles_log: np.ndarray, scene: Scen
         release_sd = track_end[1]
         if confirm and not seen_leaving:  # a stone seen in flight was released; a track
             # that just ends may have been lost
-            est, release_sd = lost_or_released(log, angles_log, est, scene, options,
-                                               smooth_events, q, r, track_end)
+            return lost_or_released(log, angles_log, est, scene, options, smooth_events,
+                                    q, r, track_end, plane)
     elif check:
-        est, release_sd = release_by_the_equations(log, angles_log, est, scene, options,
-                                                   smooth_events, q, r)
+        return release_by_the_equations(log, angles_log, est, scene, options,
+                                        smooth_events, q, r)
     elif unchecked:
         est = with_smoothing(est, smoothing_of(est).noted(
             "the release was not checked against the engine's equations "

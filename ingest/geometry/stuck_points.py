@@ -96,6 +96,32 @@ def _held(xy: np.ndarray, first: int, last: int, tol: float) -> tuple[int, int]:
     return first, k - 1
 
 
+#: Before it stands still, a template sliding onto an occluder drags its point off the
+#: engine: the frames just before a stuck run whose tie is off by this share of its size
+#: (and 5 noise sd) are the slide, and are left out with the run.
+SLIDE_SHARE = 0.02
+#: ...over at most this many frames (a stone in flight before a template stuck on
+#: something keeps the rest of its flight).
+SLIDE_FRAMES = 15
+
+
+def _slid_from(d: np.ndarray, tie: float, first: int, limit: float) -> int:
+    """The first frame of a stuck run starting at ``first`` grown back over the frames
+    just before it whose tie ``d`` (per frame) lies further than ``limit`` from its median
+    ``tie`` (gaps skipped): the template's slide onto what it sticks to (Kinovea's
+    default tracker re-cuts its template on a frame leg over a dozen frames as the stone
+    passes behind it; those frames are no sling angle, and were taken for the stone's
+    flight)."""
+    k = first - 1
+    while k >= max(first - SLIDE_FRAMES, 0) and not (np.isfinite(d[k])
+                                                     and abs(d[k] - tie) <= limit):
+        k -= 1
+    start = k + 1
+    while start < first and not np.isfinite(d[start]):
+        start += 1
+    return start
+
+
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """(first, last) of the runs of True."""
     idx = np.flatnonzero(mask)
@@ -171,6 +197,7 @@ def stuck_runs(positions: dict[str, tuple[np.ndarray, np.ndarray]],
         for first, last in _runs(stuck):
             first, last = _held(xy[point], first, last,
                                 NOISE_SPREADS * sigma + STILL_SHARE * beam)
+            first = _slid_from(d, tie, first, max(5.0 * sigma, SLIDE_SHARE * size))
             found.append(StuckRun(point, ref, first, last,
                                   float(np.nanmax(spreads[first:last + 1])),
                                   float(np.nanmax(moves[first:last + 1]))))

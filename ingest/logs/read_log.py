@@ -422,7 +422,9 @@ def _from_points(
         positions = {r: tuple(calibration.to_plane(np.column_stack(xy)).T)
                      for r, xy in positions.items()}
         decisions.append(calibration.describe())
+    held = []
     for run in stuck_runs(positions):  # a tracker held on an occluder: gaps, named
+        held.append((run.point, float(source.t[run.first]), float(source.t[run.last])))
         x, y = (v.copy() for v in positions[run.point])
         x[run.first:run.last + 1] = np.nan
         y[run.first:run.last + 1] = np.nan
@@ -473,6 +475,7 @@ def _from_points(
         repairs=repairs,
         leaves_sling=leaves,
         decisions=decisions,
+        held=tuple(held),
     )
 
 
@@ -532,6 +535,7 @@ def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame
         point_names=None if log.points is None else dict(log.point_names or {}),
         leaves_sling=log.leaves_sling,
         lines=log.rows,
+        held=log.held,
     )
     df.attrs["log"] = info
     name = Path(path).name
