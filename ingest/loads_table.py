@@ -22,11 +22,13 @@ from scipy.special import ndtr
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.advisory import resolution_advisories
 from trebuchet.ingest.events.lift_off import (
+    lift_off_choice,
     lift_off_sd,
     lift_off_time,
     offset_widened_sd,
     rest_offset,
 )
+from trebuchet.ingest.events.trough_departure import StoneLiftOff
 from trebuchet.ingest.reconstruct_options import ReconstructOptions, propagation_order
 from trebuchet.ingest.reconstruction import Reconstruction
 from trebuchet.ingest.scene_fit import geometry_findings
@@ -176,7 +178,8 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                         events: Mapping[str, float | None] | None = None,
                         options: ReconstructOptions | None = None,
                         release_sd: float | None = None,
-                        lines: np.ndarray | None = None) -> pd.DataFrame:
+                        lines: np.ndarray | None = None,
+                        stone_lift: StoneLiftOff | None = None) -> pd.DataFrame:
     """Every load and its sd from the output of :func:`~trebuchet.ingest.smoothing.smooth.smooth`.
 
     ``lines``: the file's line number of each row (``read_log``'s ``ReadLog.lines``); the
@@ -184,7 +187,10 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
 
     ``events``: given event times (s, log time; None = no such event) overriding those in
     the smoothing's and the lift-off detection; ``release_sd`` (s): sd of the
-    release time in ``est`` if known (default ``event_sd_frames`` frames). Returns the
+    release time in ``est`` if known (default ``event_sd_frames`` frames);
+    ``stone_lift``: the stone's departure from the trough
+    (:func:`~.events.trough_departure.stone_lift_off`), weighed with the normal force's
+    zero (:func:`~.events.lift_off.lift_off_choice`). Returns the
     frame of :func:`reconstruct` (without the log's own attrs).
     """
     options = options or ReconstructOptions()
@@ -209,6 +215,8 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                 else (sd_event if release_sd is None else release_sd)}
     lift = None
     event_sd["lift_off"] = float("nan")
+    lift_notes: list[str] = []
+    lift_warnings: list[str] = []
     if scene.projectile == "trough":
         if "lift_off" in given:
             lift = given["lift_off"]
@@ -216,9 +224,16 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
             event_sd["lift_off"] = 0.0
         else:
             lift, event_sd["lift_off"] = detect_lift_off(state, cov, scene, trigger, release,
-                                                          options)
+                                                         options)
             sources["lift_off"] = ("trough normal force reaches zero" if lift is not None
                                    else "the normal force never reaches zero before release")
+            if lift is not None and stone_lift is not None and stone_lift.time is not None:
+                choice = lift_off_choice(lift, event_sd["lift_off"], stone_lift.time,
+                                         stone_lift.sd)
+                lift, event_sd["lift_off"] = choice.time, choice.sd
+                sources["lift_off"] = choice.source
+                lift_notes = [n for n in (choice.note, choice.warning) if n is not None]
+                lift_warnings = [choice.warning] if choice.warning is not None else []
     else:
         sources["lift_off"] = f"no trough (projectile {scene.projectile!r})"
     phase = shot_phases(t, scene, trigger, lift, release)
@@ -241,7 +256,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         out[c + "_sd"] = sd[:, j]
     result = pd.DataFrame(out, index=est.index)
 
-    notes = list(fit.notes)
+    notes = list(fit.notes) + lift_notes
     if trigger is None:
         notes.append("no rest found at the start: t_shot counts from the first frame")
     moving = phase > 0
@@ -263,5 +278,6 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     result.attrs["reconstruction"] = Reconstruction(
         events=events, event_sd=event_sd, event_sources=sources, noise=noise,
         form=options.form, trough=options.trough, model=fit.model, preset=options.preset,
-        fps=fps, advisories=advice, validity=validity, notes=notes)
+        fps=fps, advisories=advice, validity=validity, notes=notes,
+        event_warnings=tuple(lift_warnings))
     return result

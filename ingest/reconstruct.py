@@ -36,7 +36,9 @@ The pipeline (:func:`reconstruct`), each stage a function of its inputs:
    equations, the smoother's jump search);
 3. :func:`refined_estimate`: the notes of the first stages, the calibration's sd in the
    bands, the counterweight carried on past a lost track, the angles' systematic sd;
-4. :func:`~.loads_table.loads_from_smoothed`: phases, lift-off, loads and their sd;
+4. :func:`~.loads_table.loads_from_smoothed`: phases, lift-off (the normal force's zero
+   weighed with the stone's departure from the trough, :func:`stone_departure`), loads
+   and their sd;
 5. :func:`warn_checks`: the geometry findings and the resolution advisory warned.
 """
 
@@ -61,6 +63,11 @@ from trebuchet.ingest.calibrated_angles import (
     calibrated_log,
     widened_by_calibration,
 )
+from trebuchet.ingest.events.trough_departure import (
+    StoneLiftOff,
+    TroughDeparture,
+    stone_lift_off,
+)
 from trebuchet.ingest.geometry.user_calibration import UserCalibration, read_calibration
 from trebuchet.ingest.loads_table import STATE_COLUMNS, loads_from_smoothed, shot_phases
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
@@ -74,7 +81,7 @@ from trebuchet.ingest.reconstruct_options import (
     propagation_order,
     smoother_settings,
 )
-from trebuchet.ingest.reconstruction import reconstruction_of
+from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.release_stage import (
     Noise,
     log_source,
@@ -88,11 +95,12 @@ from trebuchet.ingest.smoothing.smooth import ANGLES, checked_events, validated_
 from trebuchet.ingest.systematic_angles import systematic_angles, with_systematic_angles
 from trebuchet.ingest.user_calibrated import posed_log
 from trebuchet.model.scene import Scene, as_scene
+from trebuchet.model.simulate import simulate
 
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
            "sling_track_end", "PRESETS", "smoother_settings", "propagation_order",
            "STATE_COLUMNS", "FORMS", "checking_settings", "ReadStage", "read_stage",
-           "refined_estimate", "warn_checks"]
+           "refined_estimate", "warn_checks", "stone_departure"]
 
 
 def _log_frame(path_or_log, fps, columns, points, read_options) -> pd.DataFrame:
@@ -180,11 +188,65 @@ def refined_estimate(est: pd.DataFrame, read: ReadStage, scene: Scene,
         points=None if calibrated is None else calibrated.plane))
 
 
-def warn_checks(result: pd.DataFrame, source: str) -> None:
-    """Stage 5 of :func:`reconstruct`: the geometry findings and the resolution advisory
-    of ``result`` warned (ModelValidityWarning), named by the log's file ``source``."""
+def stone_departure(read: ReadStage, est: pd.DataFrame, scene: Scene) -> StoneLiftOff | None:
+    """The stone's own departure from the trough (:mod:`.events.trough_departure`), for a
+    point log of a scene that starts in the trough: in the engine's plane where the engine
+    calibrated the image, else in the file's unit; candidates from the smoothing's trigger
+    to 1.5 × the scene's own time to lift-off after it (and before the release). None
+    where there is no stone track, no trigger or no lift-off to seek."""
+    info = read_log_info(read.log)
+    plane = None if read.calibrated is None else read.calibrated.plane
+    points = plane if plane is not None else None if info is None else info.points
+    found = smoothing_of(est).events
+    trigger, release = found.get("trigger"), found.get("release")
+    if (scene.projectile != "trough" or points is None or trigger is None
+            or "projectile_x" not in points):
+        return None
+    lift = simulate(scene, t_eval=[0.0]).attrs["events"].get("lift_off")
+    if lift is None:
+        return None
+    t = np.asarray(points["t"], dtype=float)
+    latest = trigger + 1.5 * float(lift)
+    if release is not None:
+        latest = min(latest, release - TroughDeparture().window_s)
+    stone = np.column_stack([np.asarray(points["projectile_x"], dtype=float),
+                             np.asarray(points["projectile_y"], dtype=float)])
+    return stone_lift_off(t, stone, trigger, latest, float(np.median(np.diff(t))))
+
+
+#: An event whose sd exceeds this many frames is warned about (its ±2 sd reach beyond two
+#: frames: the video bench's rule is that an event more than 2 frames off lies within
+#: its stated 2 sd and is warned about).
+UNCERTAIN_FRAMES = 1.0
+
+
+def uncertain_events(done: Reconstruction, warned: tuple[str, ...] = ()) -> list[str]:
+    """Sentences for the events of ``done`` known to worse than :data:`UNCERTAIN_FRAMES`
+    frames (sd), except those a sentence of ``warned`` already names."""
+    frame = 1.0 / done.fps if done.fps > 0 else float("nan")
+    out = []
+    for key, name in (("trigger", "trigger"), ("lift_off", "lift-off"), ("release", "release")):
+        when, sd = done.events.get(key), done.event_sd.get(key, float("nan"))
+        if when is None or not np.isfinite(sd) or not sd > UNCERTAIN_FRAMES * frame:
+            continue
+        if any(name in w for w in warned):
+            continue
+        out.append(f"the {name} at {when:.4f} s is uncertain: sd {1e3 * sd:.1f} ms "
+                   f"({sd / frame:.1f} frames; {done.event_sources.get(key, '')}); the "
+                   "loads next to it carry that in their bands")
+    return out
+
+
+def warn_checks(result: pd.DataFrame, source: str, warned: tuple[str, ...] = ()) -> None:
+    """Stage 5 of :func:`reconstruct`: the events' disagreements and uncertainty, the
+    geometry findings and the resolution advisory of ``result`` warned
+    (ModelValidityWarning), named by the log's file ``source``; ``warned``: sentences the
+    earlier stages warned already."""
     name = Path(source).name
     done = reconstruction_of(result)
+    events = list(done.event_warnings)
+    for sentence in events + uncertain_events(done, warned + tuple(events)):
+        warn_at_caller(f"{name}: {sentence}", ModelValidityWarning)
     warn_findings(list(done.validity), name)
     advice = done.advisories
     if advice:
@@ -275,8 +337,11 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     lines = info.lines if info is not None and info.lines is not None \
         and len(info.lines) == len(est) else None
     result = loads_from_smoothed(est, scene, events=given, options=options, lines=lines,
-                                 release_sd=shot.release_sd)
+                                 release_sd=shot.release_sd,
+                                 stone_lift=stone_departure(read, est, scene))
     if info is not None:
         result.attrs["log"] = info
-    warn_checks(result, read.source)
+    warned = () if shot.choice is None or shot.choice.warning is None \
+        else (shot.choice.warning,)
+    warn_checks(result, read.source, warned)
     return result

@@ -54,6 +54,9 @@ class Reconstruction:
         Sentences: angles outside the scene's geometry, a slack sling.
     notes:
         Sentences about the log, the smoothing and the events.
+    event_warnings:
+        Sentences about events whose sources disagree (also in ``notes``), for
+        :func:`~trebuchet.ingest.reconstruct.reconstruct` to warn.
     """
 
     events: Mapping[str, float | None]
@@ -68,6 +71,7 @@ class Reconstruction:
     advisories: tuple[Advisory, ...] = ()
     validity: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    event_warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -75,7 +79,7 @@ class Reconstruction:
             set_(self, name, MappingProxyType(dict(getattr(self, name))))
         set_(self, "noise", MappingProxyType(
             {a: MappingProxyType(dict(v)) for a, v in self.noise.items()}))
-        for name in ("advisories", "validity", "notes"):
+        for name in ("advisories", "validity", "notes", "event_warnings"):
             set_(self, name, tuple(getattr(self, name)))
 
     def __deepcopy__(self, memo: dict) -> Reconstruction:
@@ -89,7 +93,7 @@ class Reconstruction:
         return (_rebuild, (dict(self.events), dict(self.event_sd), dict(self.event_sources),
                            {a: dict(v) for a, v in self.noise.items()}, self.form,
                            self.trough, self.model, self.preset, self.fps, self.advisories,
-                           self.validity, self.notes))
+                           self.validity, self.notes, self.event_warnings))
 
 
 def _rebuild(*fields) -> Reconstruction:

@@ -8,9 +8,14 @@ the loads are too). Times in the log's time (s).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["lift_off_time", "lift_off_sd", "rest_offset", "offset_widened_sd"]
+from trebuchet.ingest.events.release_sources import covering_sd
+
+__all__ = ["lift_off_time", "lift_off_sd", "rest_offset", "offset_widened_sd",
+           "LiftOffChoice", "lift_off_choice"]
 
 
 def lift_off_time(t: np.ndarray, normal_force: np.ndarray, trigger: float | None,
@@ -77,3 +82,46 @@ def offset_widened_sd(sd: float, lift_off: float, shifted: float | None) -> floa
     if shifted is None or not np.isfinite(shifted):
         return sd
     return float(np.hypot(sd, shifted - lift_off)) if np.isfinite(sd) else abs(shifted - lift_off)
+
+
+@dataclass(frozen=True)
+class LiftOffChoice:
+    """The lift-off taken: ``time`` (s, log time) and ``sd`` (s), ``source`` (a phrase),
+    ``note`` (a sentence, or None) and ``warning`` (a sentence to warn, or None: the
+    normal force's zero and the stone's departure from the trough disagree)."""
+
+    time: float
+    sd: float
+    source: str
+    note: str | None = None
+    warning: str | None = None
+
+
+def lift_off_choice(force: float, force_sd: float, stone: float | None, stone_sd: float,
+                    agreement_sd: float = 2.0) -> LiftOffChoice:
+    """Lift-off from the normal force's zero (``force``, ``force_sd``, s) and the stone's
+    departure from the trough (``stone``, ``stone_sd``, s; None: not seen,
+    :mod:`.trough_departure`): their inverse-variance mean where they agree within
+    ``agreement_sd`` sd of their difference; else that mean with an sd that covers both
+    (the release's rule, :func:`~.release_sources.covering_sd`) and a warning."""
+    source = "trough normal force reaches zero"
+    if stone is None or not (np.isfinite(stone_sd) and stone_sd > 0):
+        return LiftOffChoice(force, force_sd, source)
+    if not (np.isfinite(force_sd) and force_sd > 0):
+        force_sd = stone_sd
+    w_f, w_s = 1.0 / force_sd**2, 1.0 / stone_sd**2
+    when = (w_f * force + w_s * stone) / (w_f + w_s)
+    sd = float(1.0 / np.sqrt(w_f + w_s))
+    both = float(np.hypot(force_sd, stone_sd))
+    said = (f"the trough's normal force reaches zero at {force:.4f} s (sd "
+            f"{1e3 * force_sd:.1f} ms), the stone leaves the trough at {stone:.4f} s (sd "
+            f"{1e3 * stone_sd:.1f} ms)")
+    source = "trough normal force reaches zero and the stone leaves the trough"
+    if abs(force - stone) <= agreement_sd * both:
+        return LiftOffChoice(when, sd, source, f"lift-off at {when:.4f} s: {said}")
+    wide = covering_sd(sd, max(abs(when - force), abs(when - stone)))
+    return LiftOffChoice(when, wide, source, None,
+                         f"the lift-off sources disagree: {said}, {abs(force - stone) / both:.1f} "
+                         f"sd apart; lift-off is taken at {when:.4f} s with sd "
+                         f"{1e3 * wide:.1f} ms to cover both (the angles' common offset, a "
+                         "camera's roll, moves the normal force's zero)")
