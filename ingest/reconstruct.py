@@ -31,9 +31,12 @@ The pipeline (:func:`reconstruct`), each stage a function of its inputs:
 1. :func:`read_stage`: the log read and checked against the scene (its swing), posed by
    the user's calibration, and its angles taken through the camera the engine calibrates
    (:mod:`.calibrated_angles`);
-2. :func:`~.release_stage.smoothed_with_release`: the log smoothed with the release its
+2. :func:`check_shot` (a log with no shot is refused), then
+   :func:`~.release_stage.smoothed_with_release`: the log smoothed with the release its
    sources agree on (the sling track's end, the tracked stone's flight, the engine's
-   equations, the smoother's jump search);
+   equations, the smoother's jump search), a given release before the trigger refused
+   (:func:`check_given_release`), and the log's swing checked against the scene's
+   (:func:`matched_scene`);
 3. :func:`refined_estimate`: the notes of the first stages, the calibration's sd in the
    bands, the counterweight carried on past a lost track, the angles' systematic sd;
 4. :func:`~.loads_table.loads_from_smoothed`: phases, lift-off (the normal force's zero
@@ -56,6 +59,7 @@ from trebuchet.errors import (
     ModelValidityWarning,
     TrebuchetDataWarning,
     TrebuchetInputError,
+    on_command_line,
     warn_at_caller,
 )
 from trebuchet.ingest.calibrated_angles import (
@@ -89,7 +93,9 @@ from trebuchet.ingest.release_stage import (
     smoothed_with_release,
 )
 from trebuchet.ingest.scene_fit import warn_findings
+from trebuchet.ingest.scene_match import scene_match
 from trebuchet.ingest.smoothing.counterweight_continuation import with_continued_counterweight
+from trebuchet.ingest.smoothing.inputs import event_named
 from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
 from trebuchet.ingest.smoothing.smooth import ANGLES, checked_events, validated_log
 from trebuchet.ingest.systematic_angles import systematic_angles, with_systematic_angles
@@ -100,7 +106,8 @@ from trebuchet.model.simulate import simulate
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
            "sling_track_end", "PRESETS", "smoother_settings", "propagation_order",
            "STATE_COLUMNS", "FORMS", "checking_settings", "ReadStage", "read_stage",
-           "refined_estimate", "warn_checks", "stone_departure"]
+           "refined_estimate", "warn_checks", "stone_departure", "check_shot",
+           "check_given_release", "matched_scene"]
 
 
 def _log_frame(path_or_log, fps, columns, points, read_options) -> pd.DataFrame:
@@ -237,6 +244,61 @@ def uncertain_events(done: Reconstruction, warned: tuple[str, ...] = ()) -> list
     return out
 
 
+#: A log whose beam angle θ spreads over less than this (°, between its 1st and 99th
+#: percentile) holds no shot.
+NO_SHOT_DEG = 2.0
+
+
+def check_shot(t: np.ndarray, angles_log: np.ndarray, source: str) -> None:
+    """Refuse (``TrebuchetInputError``, one line naming the file) a log whose beam never
+    moves: θ (``angles_log[0]``, rad) within :data:`NO_SHOT_DEG` over all its rows (the
+    engine at rest: smoothing it gave a table of loads and a "peak" of noise)."""
+    theta = np.degrees(angles_log[ANGLES.index("theta")])
+    ok = np.isfinite(theta)
+    if ok.sum() < 2:
+        return
+    lo, hi = np.percentile(theta[ok], [1.0, 99.0])
+    if hi - lo < NO_SHOT_DEG:
+        raise TrebuchetInputError(
+            f"{Path(source).name}: no shot in the log: the beam's angle θ stays within "
+            f"{hi - lo:.2g}° over its {int(ok.sum())} rows (t = {t[0]:.6g}–{t[-1]:.6g} s); a "
+            "shot swings it through tens of degrees")
+
+
+def check_given_release(given: Mapping[str, float | None], trigger: float | None,
+                        source: str) -> None:
+    """Refuse a given release at or before the shot's trigger (given or detected, s): no
+    sling phase, no lift-off, and F_S zero everywhere."""
+    release = given.get("release")
+    if release is None or trigger is None or release > trigger:
+        return
+    how = "given" if "trigger" in given else "detected"
+    raise TrebuchetInputError(
+        f"{Path(source).name}: {event_named('release', release)} lies at or before the "
+        f"shot's trigger at "
+        f"{trigger:.4f} s ({how}): the release comes after the trigger")
+
+
+def matched_scene(est: pd.DataFrame, scene: Scene, options: ReconstructOptions,
+                  source: str) -> pd.DataFrame:
+    """The smoothed ``est`` checked against ``scene`` (:mod:`.scene_match`): a mismatch is
+    noted and warned (ModelValidityWarning), one beyond what a scene a little off gives is
+    refused (``TrebuchetInputError``) unless ``options.scene_mismatch`` is "warn"."""
+    found = smoothing_of(est).events
+    match = scene_match(est, scene, found.get("trigger"), found.get("release"))
+    if match.mismatch is None:
+        return est
+    name = Path(source).name
+    if match.refused and options.scene_mismatch == "refuse":
+        keyword = ("" if on_command_line() else
+                   " (ReconstructOptions(scene_mismatch='warn') computes them anyway)")
+        raise TrebuchetInputError(f"{name}: {match.mismatch} Its loads would be another "
+                                  f"engine's: refused{keyword}")
+    said = f"{match.mismatch} The loads are computed with the scene's masses and lengths"
+    warn_at_caller(f"{name}: {said}", ModelValidityWarning)
+    return with_smoothing(est, smoothing_of(est).noted(said))
+
+
 def warn_checks(result: pd.DataFrame, source: str, warned: tuple[str, ...] = ()) -> None:
     """Stage 5 of :func:`reconstruct`: the events' disagreements and uncertainty, the
     geometry findings and the resolution advisory of ``result`` warned
@@ -328,11 +390,14 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                                     "angle_unit": angle_unit, "individual": individual},
                       calibration=calibration)
     t_log, angles_log = validated_log(read.log, smoother_settings(options).min_frames)
+    check_shot(t_log, angles_log, read.source)
     given = {} if events is None else checked_events(events, t_log, read.source)
     shot = smoothed_with_release(read.log, angles_log, scene, options, given, q, r,
                                  plane=None if read.calibrated is None
                                  else read.calibrated.plane)
-    est = refined_estimate(shot.est, read, scene, angles_log)
+    check_given_release(given, smoothing_of(shot.est).events.get("trigger"), read.source)
+    est = matched_scene(shot.est, scene, options, read.source)
+    est = refined_estimate(est, read, scene, angles_log)
     info = read_log_info(read.log)
     lines = info.lines if info is not None and info.lines is not None \
         and len(info.lines) == len(est) else None

@@ -129,6 +129,11 @@ class ReconstructOptions:
     release target met in 8 cells (4), median cover of the ±2 sd bands F_R_x 44 → 71 %,
     F_S_y 71 → 85 %, |F_R| RMS error 3.1 → 3.2 % of its peak (median), |F_S| 1.7 → 1.5 %;
     about 1 s more for a few hundred frames.
+    ``scene_mismatch``: a log whose swing is another engine's than the scene's
+    (:mod:`~trebuchet.ingest.scene_match`: its swing time or peak rate off by more than a
+    third) is refused ("refuse", default: its loads would be computed with another
+    engine's masses) or only warned about ("warn", as ``compare`` does, whose report shows
+    how the model differs); a smaller mismatch always warns.
     """
 
     form: str = "projected"
@@ -141,6 +146,7 @@ class ReconstructOptions:
     preset: str = "default"
     release_model: ReleaseFit | None = ReleaseFit()
     image_calibration: str = "engine"
+    scene_mismatch: str = "refuse"
 
     def __post_init__(self) -> None:
         check_choice("reconstruct", "preset", self.preset, tuple(PRESETS))
@@ -148,6 +154,7 @@ class ReconstructOptions:
                      IMAGE_CALIBRATIONS)
         check_choice("reconstruct", "form", self.form, FORMS)
         check_choice("reconstruct", "trough", self.trough, TROUGH)
+        check_choice("reconstruct", "scene_mismatch", self.scene_mismatch, ("refuse", "warn"))
         if not (np.isfinite(self.event_sd_frames) and self.event_sd_frames >= 0):
             raise TrebuchetInputError("reconstruct: event_sd_frames must be ≥ 0")
 
