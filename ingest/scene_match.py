@@ -34,7 +34,7 @@ from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
 
 __all__ = ["SceneMatch", "scene_match", "WARN_RATIO", "REFUSE_RATIO", "POSE_DEG",
-           "SPAN_DEG"]
+           "PAST_REST_DEG"]
 
 #: A swing time or peak rate off by more than this factor (either way) warns...
 WARN_RATIO = 1.07
@@ -42,8 +42,9 @@ WARN_RATIO = 1.07
 REFUSE_RATIO = 1.33
 #: The start angle off by more than this (°, beyond the camera's roll) warns.
 POSE_DEG = 2.0
-#: The stretch of the swing timed: from the first to the second angle (°) past rest.
-SPAN_DEG = (20.0, 70.0)
+#: The beam is timed and its rate read where it passes these angles (°) past its rest
+#: angle: the swing time is the time from the first to the last.
+PAST_REST_DEG = (20.0, 45.0, 70.0)
 
 
 @dataclass(frozen=True)
@@ -64,13 +65,24 @@ class SceneMatch:
     refused: bool
 
 
-def _span(t: np.ndarray, theta_deg: np.ndarray, rest: float) -> float:
-    """Time (s) from the first sample :data:`SPAN_DEG`\\[0] past ``rest`` to the first
-    :data:`SPAN_DEG`\\[1] past it (NaN if not both reached)."""
+def _crossings(t: np.ndarray, theta_deg: np.ndarray, rate: np.ndarray, rest: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Times (s) and rates (rad/s) at which the beam first passes each of
+    :data:`PAST_REST_DEG` past ``rest`` (°), interpolated between samples (NaN where it
+    does not)."""
     rise = theta_deg - rest
-    a = np.flatnonzero(rise >= SPAN_DEG[0])
-    b = np.flatnonzero(rise >= SPAN_DEG[1])
-    return float(t[b[0]] - t[a[0]]) if a.size and b.size else float("nan")
+    times, rates = [], []
+    for level in PAST_REST_DEG:
+        k = np.flatnonzero(rise >= level)
+        if k.size == 0 or k[0] == 0 or not np.isfinite(rise[k[0] - 1]):
+            times.append(np.nan)
+            rates.append(np.nan)
+            continue
+        i = int(k[0])
+        f = (level - rise[i - 1]) / (rise[i] - rise[i - 1])
+        times.append(t[i - 1] + f * (t[i] - t[i - 1]))
+        rates.append(rate[i - 1] + f * (rate[i] - rate[i - 1]))
+    return np.array(times), np.array(rates)
 
 
 def _ratio_text(what: str, got: float, want: float, unit: str, ratio: float) -> str:
@@ -78,10 +90,17 @@ def _ratio_text(what: str, got: float, want: float, unit: str, ratio: float) -> 
 
 
 def scene_match(est: pd.DataFrame, scene: Scene, trigger: float | None,
-                release: float | None) -> SceneMatch:
+                release: float | None = None) -> SceneMatch:
     """The smoothed log ``est`` (``t`` s, ``theta``, ``theta_d``, ``psi``; rad, rad/s)
-    against the simulation of ``scene``; ``trigger``, ``release`` (s, log time; None:
-    not found) bound the swing. See the module doc."""
+    against the simulation of ``scene``; ``trigger`` (s, log time; None: the log starts
+    in motion, nothing is compared) marks the rest before the swing. The rates are read
+    where the beam passes 20°, 45° and 70° past rest, on its way up (not up to a release,
+    which a tracker may put anywhere), and the worst of them counts; the swing time is the
+    time between the first and the last of those. See the module doc. ``release`` is
+    not used (kept for the callers' symmetry)."""
+    nan = float("nan")
+    if trigger is None:
+        return SceneMatch(nan, nan, nan, nan, None, False)
     t = est["t"].to_numpy(dtype=float)
     theta = np.degrees(est["theta"].to_numpy(dtype=float))
     rate = est["theta_d"].to_numpy(dtype=float)
@@ -89,36 +108,39 @@ def scene_match(est: pd.DataFrame, scene: Scene, trigger: float | None,
     held = sim["phase"].to_numpy() <= 2
     t_sim = sim["t"].to_numpy(dtype=float)[held]
     theta_sim = np.degrees(sim["theta"].to_numpy(dtype=float))[held]
-    rate_sim = float(np.max(sim["theta_d"].to_numpy(dtype=float)[held]))
-    lo = -math.inf if trigger is None else trigger
-    hi = math.inf if release is None else release
-    swing = (t > lo) & (t <= hi) & np.isfinite(rate)
-    rate_ratio = float(np.max(rate[swing]) / rate_sim) if swing.any() else float("nan")
-    pose = roll = swing_ratio = float("nan")
-    if trigger is not None:
-        at_rest = t <= trigger
-        rest = float(np.nanmedian(theta[at_rest])) if at_rest.any() else float("nan")
-        if np.isfinite(rest):
-            psi = np.degrees(est["psi"].to_numpy(dtype=float))[at_rest]
-            roll = float(np.nanmedian(psi) - math.degrees(scene.start.psi)) \
-                if np.isfinite(psi).any() else 0.0
-            pose = rest - math.degrees(scene.start.theta) - roll
-            span = _span(t[swing], theta[swing], rest)
-            span_sim = _span(t_sim, theta_sim, float(theta_sim[0]))
-            swing_ratio = span / span_sim if span_sim > 0 else float("nan")
+    at_sim = _crossings(t_sim, theta_sim, sim["theta_d"].to_numpy(dtype=float)[held],
+                        float(theta_sim[0]))
+    at_rest = t <= trigger
+    rest = float(np.nanmedian(theta[at_rest])) if np.isfinite(theta[at_rest]).any() else nan
+    if not np.isfinite(rest):
+        return SceneMatch(nan, nan, nan, nan, None, False)
+    psi = np.degrees(est["psi"].to_numpy(dtype=float))[at_rest]
+    roll = float(np.nanmedian(psi) - math.degrees(scene.start.psi)) \
+        if np.isfinite(psi).any() else 0.0
+    pose = rest - math.degrees(scene.start.theta) - roll
+    after = t > trigger
+    at_log = _crossings(t[after], theta[after], rate[after], rest)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate_ratios = at_log[1] / at_sim[1]
+        swing_ratio = float((at_log[0][-1] - at_log[0][0]) / (at_sim[0][-1] - at_sim[0][0]))
+    finite = rate_ratios[np.isfinite(rate_ratios) & (rate_ratios > 0)]
+    rate_ratio = float(finite[np.argmax(np.maximum(finite, 1 / finite))]) if finite.size \
+        else nan
     parts = []
-    worst = 1.0
+    offs = []
+    k = int(np.argmax(np.where(np.isfinite(rate_ratios) & (rate_ratios > 0),
+                               np.maximum(rate_ratios, 1 / rate_ratios), 0.0)))
     for what, ratio, got, want, unit in (
-            ("swings from 20° to 70° past rest in", swing_ratio,
-             swing_ratio * _span(t_sim, theta_sim, float(theta_sim[0])),
-             _span(t_sim, theta_sim, float(theta_sim[0])), " s"),
-            ("turns its beam at up to", rate_ratio, rate_ratio * rate_sim, rate_sim, " rad/s")):
+            (f"swings from {PAST_REST_DEG[0]:g}° to {PAST_REST_DEG[-1]:g}° past rest in",
+             swing_ratio, at_log[0][-1] - at_log[0][0], at_sim[0][-1] - at_sim[0][0], " s"),
+            (f"passes {PAST_REST_DEG[k]:g}° past rest at", rate_ratio, at_log[1][k],
+             at_sim[1][k], " rad/s")):
         if np.isfinite(ratio) and ratio > 0:
             off = max(ratio, 1.0 / ratio)
-            worst = max(worst, off)
+            offs.append(off)
             if off > WARN_RATIO:
                 parts.append(_ratio_text(what, got, want, unit, ratio))
-    if np.isfinite(pose) and abs(pose) > POSE_DEG:
+    if abs(pose) > POSE_DEG:
         parts.append(f"starts with its beam at {math.degrees(scene.start.theta) + pose:.1f}° "
                      f"(the scene's {math.degrees(scene.start.theta):.1f}°, beyond the "
                      f"camera's roll of {roll:.1f}° that the hanging counterweight shows)")
@@ -126,4 +148,5 @@ def scene_match(est: pd.DataFrame, scene: Scene, trigger: float | None,
     if parts:
         mismatch = (f"the log is not the engine of {scene.source}: it "
                     + "; it ".join(parts) + "; is the scene the engine filmed?")
-    return SceneMatch(swing_ratio, rate_ratio, pose, roll, mismatch, worst > REFUSE_RATIO)
+    refused = len(offs) == 2 and min(offs) > REFUSE_RATIO ** 0.5 and max(offs) > REFUSE_RATIO
+    return SceneMatch(swing_ratio, rate_ratio, pose, roll, mismatch, refused)
