@@ -14,6 +14,7 @@ geometry findings. Units: SI.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -40,7 +41,7 @@ from trebuchet.model.loads import loads
 from trebuchet.model.scene import Scene
 
 __all__ = ["STATE_COLUMNS", "shot_phases", "phase_loads", "state_frame", "event_variance",
-           "detect_lift_off", "loads_from_smoothed"]
+           "detect_lift_off", "loads_from_smoothed", "ShotEvents", "shot_events"]
 
 STATE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES]
 DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
@@ -174,6 +175,70 @@ def detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scen
     return when, sd
 
 
+@dataclass(frozen=True)
+class ShotEvents:
+    """The events of a smoothed log as the loads table uses them: ``times`` (trigger,
+    lift-off, release; s, log time, or None), their ``sd`` (s; 0 given, NaN not sought),
+    ``sources`` (phrases), and the ``notes`` and ``warnings`` (sentences) their
+    decisions gave."""
+
+    times: dict[str, float | None]
+    sd: dict[str, float]
+    sources: dict[str, str]
+    notes: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+
+
+def _lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
+              given: Mapping[str, float | None], trigger: float | None,
+              release: float | None, options: ReconstructOptions,
+              stone_lift: StoneLiftOff | None) -> tuple[float | None, float, str, tuple, tuple]:
+    """Lift-off (s or None), its sd (s), source, notes and warnings: given, or the normal
+    force's zero weighed with the stone's departure from the trough
+    (:func:`~.events.lift_off.lift_off_choice`)."""
+    if scene.projectile != "trough":
+        return None, float("nan"), f"no trough (projectile {scene.projectile!r})", (), ()
+    if "lift_off" in given:
+        lift = given["lift_off"]
+        return lift, 0.0, "given" if lift is not None else "given as none", (), ()
+    lift, sd = detect_lift_off(state, cov, scene, trigger, release, options)
+    if lift is None:
+        return None, sd, "the normal force never reaches zero before release", (), ()
+    if stone_lift is None or stone_lift.time is None:
+        return lift, sd, "trough normal force reaches zero", (), ()
+    choice = lift_off_choice(lift, sd, stone_lift.time, stone_lift.sd)
+    notes = tuple(n for n in (choice.note, choice.warning) if n is not None)
+    warned = () if choice.warning is None else (choice.warning,)
+    return choice.time, choice.sd, choice.source, notes, warned
+
+
+def shot_events(est: pd.DataFrame, state: pd.DataFrame, cov: dict[str, np.ndarray],
+                scene: Scene, given: Mapping[str, float | None], options: ReconstructOptions,
+                release_sd: float | None, stone_lift: StoneLiftOff | None) -> ShotEvents:
+    """The trigger and release of the smoothing (or ``given``), a release moved inside the
+    sling's track (:func:`_release_within_sling_track`), their sd, and lift-off
+    (:func:`_lift_off`); see :func:`loads_from_smoothed`."""
+    t = est["t"].to_numpy(dtype=float)
+    fit = smoothing_of(est)
+    found = dict(fit.events)
+    sources = dict(fit.event_sources)
+    trigger = given["trigger"] if "trigger" in given else found.get("trigger")
+    release = given["release"] if "release" in given else found.get("release")
+    if scene.projectile == "none":
+        release = None
+    elif release is not None and "release" not in given:
+        release = _release_within_sling_track(t, est["phi"].to_numpy(dtype=float), release)
+    sd_event = options.event_sd_frames * float(np.median(np.diff(t)))
+    sd = {"trigger": 0.0 if "trigger" in given or trigger is None
+          else fit.event_sd.get("trigger", sd_event),
+          "release": 0.0 if "release" in given or release is None
+          else (sd_event if release_sd is None else release_sd)}
+    lift, sd["lift_off"], sources["lift_off"], notes, warned = _lift_off(
+        state, cov, scene, given, trigger, release, options, stone_lift)
+    return ShotEvents({"trigger": trigger, "lift_off": lift, "release": release}, sd, sources,
+                      notes, warned)
+
+
 def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                         events: Mapping[str, float | None] | None = None,
                         options: ReconstructOptions | None = None,
@@ -194,58 +259,21 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     frame of :func:`reconstruct` (without the log's own attrs).
     """
     options = options or ReconstructOptions()
-    given = dict(events or {})
     t = est["t"].to_numpy(dtype=float)
     state = state_frame(est)
     fit = smoothing_of(est)
     cov = {a: np.asarray(c, dtype=float)[:, :3, :3] for a, c in fit.cov.items()}
-    found = dict(fit.events)
-    sources = dict(fit.event_sources)
-    trigger = given["trigger"] if "trigger" in given else found.get("trigger")
-    release = given["release"] if "release" in given else found.get("release")
-    if scene.projectile == "none":
-        release = None
-    elif release is not None and "release" not in given:
-        release = _release_within_sling_track(t, est["phi"].to_numpy(dtype=float), release)
-    fps = 1.0 / float(np.median(np.diff(t)))
-    sd_event = options.event_sd_frames / fps
-    trigger_sd = fit.event_sd.get("trigger", sd_event)
-    event_sd = {"trigger": 0.0 if "trigger" in given or trigger is None else trigger_sd,
-                "release": 0.0 if "release" in given or release is None
-                else (sd_event if release_sd is None else release_sd)}
-    lift = None
-    event_sd["lift_off"] = float("nan")
-    lift_notes: list[str] = []
-    lift_warnings: list[str] = []
-    if scene.projectile == "trough":
-        if "lift_off" in given:
-            lift = given["lift_off"]
-            sources["lift_off"] = "given" if lift is not None else "given as none"
-            event_sd["lift_off"] = 0.0
-        else:
-            lift, event_sd["lift_off"] = detect_lift_off(state, cov, scene, trigger, release,
-                                                         options)
-            sources["lift_off"] = ("trough normal force reaches zero" if lift is not None
-                                   else "the normal force never reaches zero before release")
-            if lift is not None and stone_lift is not None and stone_lift.time is not None:
-                choice = lift_off_choice(lift, event_sd["lift_off"], stone_lift.time,
-                                         stone_lift.sd)
-                lift, event_sd["lift_off"] = choice.time, choice.sd
-                sources["lift_off"] = choice.source
-                lift_notes = [n for n in (choice.note, choice.warning) if n is not None]
-                lift_warnings = [choice.warning] if choice.warning is not None else []
-    else:
-        sources["lift_off"] = f"no trough (projectile {scene.projectile!r})"
-    phase = shot_phases(t, scene, trigger, lift, release)
-
+    ev = shot_events(est, state, cov, scene, dict(events or {}), options, release_sd,
+                     stone_lift)
+    trigger, release = ev.times["trigger"], ev.times["release"]
+    phase = shot_phases(t, scene, trigger, ev.times["lift_off"], release)
     prop = propagate(lambda s: phase_loads(s, phase, scene, options.form, options.trough),
                      state, cov, order=propagation_order(options))
-    ev_var = (event_variance(t, trigger, event_sd["trigger"], prop.value)
-              + event_variance(t, release, event_sd["release"], prop.value))
+    ev_var = (event_variance(t, trigger, ev.sd["trigger"], prop.value)
+              + event_variance(t, release, ev.sd["release"], prop.value))
     sd = np.sqrt(prop.sd ** 2 + ev_var)
-
-    t_shot = t - (trigger if trigger is not None else t[0])
-    out: dict[str, np.ndarray] = {"t": t, "t_shot": t_shot, "phase": phase}
+    out: dict[str, np.ndarray] = {"t": t, "t_shot": t - (trigger if trigger is not None
+                                                         else t[0]), "phase": phase}
     for c in STATE_COLUMNS:  # the smoothed angles (phase-I loads may use φ from θ)
         out[c] = state[c].to_numpy()
     for j, c in enumerate(prop.names):
@@ -255,17 +283,15 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     for j, c in enumerate(prop.names):
         out[c + "_sd"] = sd[:, j]
     result = pd.DataFrame(out, index=est.index)
-
-    notes = list(fit.notes) + lift_notes
+    notes = list(fit.notes) + list(ev.notes)
     if trigger is None:
         notes.append("no rest found at the start: t_shot counts from the first frame")
-    moving = phase > 0
-    noise = fit.noise
-    noise_deg = float(np.degrees(np.median([v["r_sd"] for v in noise.values()]))) \
-        if noise else float("nan")
+    fps = 1.0 / float(np.median(np.diff(t)))
+    noise_deg = float(np.degrees(np.median([v["r_sd"] for v in fit.noise.values()]))) \
+        if fit.noise else float("nan")
     col = {c: j for j, c in enumerate(prop.names)}
     advice = resolution_advisories(
-        t, moving, {c: prop.value[:, j] for c, j in col.items()},
+        t, phase > 0, {c: prop.value[:, j] for c, j in col.items()},
         {c: sd[:, j] for c, j in col.items()}, {c: prop.by_order[:, :, j] for c, j in col.items()},
         {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
         options.resolution_fraction, lines=lines)
@@ -273,11 +299,10 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                                  result["phi"].to_numpy(), scene,
                                  tension=result["sling_tension"].to_numpy(),
                                  tension_sd=result["sling_tension_sd"].to_numpy(), lines=lines)
-    events = {"trigger": trigger, "lift_off": lift, "release": release}
-    result.attrs["events"] = dict(events)
+    result.attrs["events"] = dict(ev.times)
     result.attrs["reconstruction"] = Reconstruction(
-        events=events, event_sd=event_sd, event_sources=sources, noise=noise,
+        events=ev.times, event_sd=ev.sd, event_sources=ev.sources, noise=fit.noise,
         form=options.form, trough=options.trough, model=fit.model, preset=options.preset,
         fps=fps, advisories=advice, validity=validity, notes=notes,
-        event_warnings=tuple(lift_warnings))
+        event_warnings=ev.warnings)
     return result
