@@ -64,10 +64,10 @@ def test_a_sling_track_lost_30_frames_early_is_not_the_release(horsdal, lost_120
 @pytest.mark.parametrize("fps, noise, seed", [(240, 0.3, 1), (60, 1.0, 3), (120, 2.0, 0)])
 def test_a_sling_track_that_ends_at_the_release_stays_the_release(horsdal, fps, noise, seed):
     """Noisy low-rate logs too: at 1 sd of the equations' release these were taken for lost
-    tracks. (The equations' time is taken where they confirm the track's end, issue 26.)"""
+    tracks."""
     log, truth = simulated_log(horsdal, fps, noise, seed=seed)
     res = _quiet(reconstruct, log, horsdal)
-    assert "the sling's track ends there" in res.attrs["reconstruction"].event_sources["release"]
+    assert res.attrs["reconstruction"].event_sources["release"] == "end of the sling track"
     assert abs(res.attrs["events"]["release"] - _release_in_log_time(truth)) < 1 / fps
     assert not any("not released" in n for n in res.attrs["reconstruction"].notes)
 

@@ -174,15 +174,19 @@ def test_a_track_that_goes_on_past_the_equations_release_is_not_the_release():
     assert c.warning is not None and "followed the stone in flight" in c.warning
 
 
-def test_a_track_end_the_equations_confirm_takes_their_time():
-    """The equations see the release, the track's end only bounds it (a tracker following
-    the stone in flight ends it frames later: on the stress grid 2.9 frames late with sd
-    0.29 frame when the track's end was taken): their time, with an sd that covers the
-    track's end."""
+def test_a_track_end_the_equations_confirm_stands():
     c = release_at_track_end(TRACK_END, None, _model(1.3 - 0.3 * FRAME))
-    assert c.kind == "track end" and c.time == pytest.approx(1.3 - 0.3 * FRAME)
-    assert c.sd >= 0.5 * FRAME and 2.0 * c.sd >= 0.3 * FRAME
-    assert "equations" in c.source and c.warning is None and c.confirmed
+    assert c.kind == "track end" and c.time == END[0] and c.sd == END[1]
+    assert c.source == "end of the sling track" and c.warning is None
+
+
+def test_equations_more_than_2_of_their_sd_before_the_track_end_are_taken():
+    """A tracker that followed the stone for a few frames without the stone being seen to
+    leave its circle (an adaptive template): the track's end's own sd (a uniform frame's)
+    no longer lets it agree with equations 1.06 frames earlier at sd 0.51 frame (with the
+    half-frame floor)."""
+    c = release_at_track_end(TRACK_END, None, _model(1.3 - 1.06 * FRAME, sd=0.1 * FRAME))
+    assert c.kind == "before end" and c.time == pytest.approx(1.3 - 1.06 * FRAME)
 
 
 def test_disagreeing_sources_get_an_sd_that_covers_both():
