@@ -21,8 +21,9 @@ Two kinds, decided from the file's content (never its extension):
   with OpenCV's keys. It fixes the lens: the tracked pixels are undistorted
   (:func:`undistort_opencv`, OpenCV's ``undistortPoints`` model: k1, k2, p1, p2, k3, k4,
   k5, k6). It does **not** fix where the engine's plane stands before the camera (tilt,
-  roll, scale). With the scene known, :func:`plane_from_engine` finds that from the
-  engine's own geometry (:class:`PlanePose`); without it the angles keep the tilt's error.
+  roll, scale). With the scene known, :func:`.plane_pose.plane_from_engine` finds that
+  from the engine's own geometry (:class:`.plane_pose.PlanePose`); without it the angles
+  keep the tilt's error.
 
 Pixels here are the readers' (``y`` up: the row negated); the calibration files' are
 OpenCV's (rows down) and are turned on reading.
@@ -36,21 +37,19 @@ import json
 import math
 import re
 import tomllib
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.model.scene import Engine
 
-from .camera import apply_homography, homography_from_points, rotation_from_angles
+from .camera import apply_homography, homography_from_points
+from .camera_files import camera_yaml, opencv_xml
 
 __all__ = ["Lens", "UserCalibration", "read_calibration", "undistort_opencv",
-           "RESIDUAL_WARN_PX", "PlanePose", "plane_from_engine", "rectified"]
+           "RESIDUAL_WARN_PX"]
 
 #: A reprojection residual (px, rms per coordinate, corrected for the homography's eight
 #: degrees of freedom) beyond which the known points warn: a mistyped point, or a lens
@@ -190,7 +189,7 @@ def _parse(text: str, source: str) -> UserCalibration:
     """Decide the layout from the content and read it."""
     head = text.lstrip()
     if head.startswith("<"):
-        return _from_mapping(_opencv_xml(text), source, "OpenCV FileStorage XML")
+        return _from_mapping(opencv_xml(text), source, "OpenCV FileStorage XML")
     if head.startswith("{"):
         try:
             data = json.loads(text)
@@ -199,7 +198,7 @@ def _parse(text: str, source: str) -> UserCalibration:
                                          ) from None
         return _from_mapping(data, source, "JSON")
     if head.startswith("%YAML") or "!!opencv-matrix" in text:
-        return _from_mapping(_yaml(text), source, "OpenCV FileStorage YAML")
+        return _from_mapping(camera_yaml(text), source, "OpenCV FileStorage YAML")
     if re.search(r"^\s*\[\[\s*point\s*\]\]", text, re.MULTILINE) or re.search(
             r"^\s*camera_matrix\s*=", text, re.MULTILINE):
         try:
@@ -208,7 +207,7 @@ def _parse(text: str, source: str) -> UserCalibration:
             raise TrebuchetInputError(f"not valid TOML ({exc})") from None
         return _from_mapping(data, source, "TOML")
     if re.search(r"^\s*(camera_matrix|cam\d+|intrinsics)\s*:", text, re.MULTILINE):
-        data = _yaml(text)
+        data = camera_yaml(text)
         layout = "Kalibr camchain YAML" if _kalibr_camera(data) else "ROS camera_info YAML"
         return _from_mapping(data, source, layout)
     first = next((ln for ln in text.splitlines() if ln.strip()), "")
@@ -438,172 +437,3 @@ def _points_csv(text: str, source: str) -> UserCalibration:
         plane.append(vals[2:])
     plane_a, image_a = _enough(np.array(plane).reshape(-1, 2), np.array(image).reshape(-1, 2))
     return _with_points(source, "CSV", plane_a, image_a, None)
-
-
-# ------------------------------------------------------------------ YAML and XML
-
-def _opencv_xml(text: str) -> dict:
-    """OpenCV's FileStorage XML: ``<opencv_storage>`` with ``<key type_id="opencv-matrix">``
-    (rows, cols, dt, data) and scalar keys."""
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise TrebuchetInputError(f"not valid XML ({exc})") from None
-    out: dict = {}
-    for child in root:
-        if child.get("type_id") == "opencv-matrix" or child.find("data") is not None:
-            cells = {c.tag: (c.text or "").strip() for c in child}
-            out[child.tag] = {"rows": cells.get("rows"), "cols": cells.get("cols"),
-                              "data": cells.get("data", "").split()}
-        else:
-            out[child.tag] = (child.text or "").strip().strip('"')
-    return out
-
-
-def _yaml(text: str) -> dict:
-    """The block YAML of camera files (OpenCV FileStorage, ROS camera_info, Kalibr): nested
-    maps by indentation, ``key: value`` scalars, flow lists ``[…]`` (over several lines),
-    tags (``!!opencv-matrix``) and ``%``/``---`` lines ignored. Not a general YAML parser."""
-    lines = []
-    for raw in text.splitlines():
-        line = raw.split(" #")[0].rstrip() if not raw.lstrip().startswith("#") else ""
-        if not line.strip() or line.startswith(("%", "---", "...")):
-            continue
-        lines.append(line)
-    joined: list[str] = []  # flow lists spread over several lines, joined
-    for line in lines:
-        if joined and joined[-1].count("[") > joined[-1].count("]"):
-            joined[-1] += " " + line.strip()
-        else:
-            joined.append(line)
-    root: dict = {}
-    stack: list[tuple[int, dict]] = [(-1, root)]
-    for line in joined:
-        indent = len(line) - len(line.lstrip())
-        key, sep, value = line.strip().partition(":")
-        if not sep or key.startswith("-"):
-            continue  # a list item or stray line: not in camera files
-        while stack[-1][0] >= indent:
-            stack.pop()
-        value = re.sub(r"^!!\S+", "", value.strip()).strip()
-        if value == "":
-            child: dict = {}
-            stack[-1][1][key.strip()] = child
-            stack.append((indent, child))
-        elif value.startswith("["):
-            stack[-1][1][key.strip()] = [v.strip().strip("'\"") for v in
-                                         value.strip("[] ").split(",") if v.strip()]
-        else:
-            stack[-1][1][key.strip()] = value.strip("'\"")
-    return root
-
-
-# ------------------------------------------------------------------ the plane from the engine
-
-#: The engine's ties whose lengths the rectified image must keep: (point, point, length).
-TIES = (("pivot", "spigot", "L1"), ("pivot", "hinge", "L2"), ("hinge", "counterweight", "L3"),
-        ("spigot", "projectile", "L4"))
-#: Soft-L1 scale of the ties' relative misfit (a tie 0.3 % off counts fully; tracker
-#: outliers beyond it less and less).
-TIE_SCALE = 3e-3
-#: Starting pitches and yaws (rad) of the fit (the best of the nine is kept).
-POSE_STARTS = (-0.2, 0.0, 0.2)
-
-
-@dataclass(frozen=True)
-class PlanePose:
-    """Where the engine's plane stands before a camera of known lens: the virtual turn of
-    the camera that faces it, ``pitch`` and ``yaw`` (rad), the ``roll`` (rad) that then makes
-    the counterweight hang plumb at rest, ``scale`` (rectified units per m: px per m / focal),
-    ``focal`` (px) and principal point ``centre`` (px, y up) of the lens-free pixels, and
-    ``misfit`` (rms relative misfit of the engine's ties, dimensionless); ``plumb_frames``
-    the rest frames the roll came from (0: the roll is not fixed)."""
-
-    pitch: float
-    yaw: float
-    roll: float
-    scale: float
-    focal: float
-    centre: tuple[float, float]
-    misfit: float
-    plumb_frames: int
-
-    def to_plane(self, xy_up: np.ndarray) -> np.ndarray:
-        """Lens-free pixels (…, 2, y up) to the engine's plane (m, y up, origin at the
-        principal point's ray)."""
-        q = rectified(xy_up, self.focal, self.centre, self.pitch, self.yaw) / self.scale
-        c, s = np.cos(-self.roll), np.sin(-self.roll)
-        return np.stack([c * q[..., 0] - s * q[..., 1], s * q[..., 0] + c * q[..., 1]], -1)
-
-
-def rectified(xy_up: np.ndarray, focal: float, centre: tuple[float, float], pitch: float,
-              yaw: float) -> np.ndarray:
-    """Lens-free pixels (…, 2, y up) as a camera turned by ``pitch`` and ``yaw`` (rad, about
-    its own x and y axes, :func:`.camera.rotation_from_angles` without roll) would see them:
-    the ray ``((u − c)/f, 1)`` turned, then divided by its depth (dimensionless)."""
-    R = rotation_from_angles(pitch, yaw, 0.0) @ np.diag([1.0, -1.0, -1.0])  # R_x R_y
-    xy = (np.asarray(xy_up, dtype=float) - np.asarray(centre)) / focal
-    ray = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1) @ R.T
-    return ray[..., :2] / ray[..., 2:3]
-
-
-def _tie_misfits(tracks: Mapping[str, np.ndarray], in_sling: np.ndarray, engine: Engine,
-                 focal: float, centre: tuple[float, float], x: np.ndarray) -> np.ndarray:
-    """Relative misfits of every tie (its rectified length over its length in m, over the
-    scale, minus 1) and the beam's bend (sine of the angle between pivot − hinge and
-    spigot − pivot), all frames, NaN left out."""
-    pitch, yaw, scale = x
-    q = {k: rectified(v, focal, centre, pitch, yaw) for k, v in tracks.items()}
-    out = []
-    for a, b, length in TIES:
-        if a in q and b in q:
-            d = np.hypot(*(q[b] - q[a]).T) / (getattr(engine, length) * scale) - 1.0
-            out.append(d[in_sling] if b == "projectile" else d)
-    if {"pivot", "spigot", "hinge"} <= set(q):
-        u, w = q["spigot"] - q["pivot"], q["pivot"] - q["hinge"]
-        out.append((u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
-                   / (np.hypot(*u.T) * np.hypot(*w.T)))
-    r = np.concatenate(out)
-    return r[np.isfinite(r)]
-
-
-def plane_from_engine(tracks: Mapping[str, np.ndarray], lens: Lens, engine: Engine,
-                      in_sling: np.ndarray, at_rest: np.ndarray) -> PlanePose:
-    """The plane's pose before a camera of known ``lens`` from the engine's own geometry.
-
-    ``tracks`` {role: (n, 2)} lens-free px, y up (:meth:`Lens.undistort`); ``in_sling`` (n,)
-    the frames whose projectile hangs L4 from the spigot; ``at_rest`` (n,) frames before the
-    shot. With the focal length known, a turn of the camera (pitch, yaw) that faces the
-    plane leaves a similar image of it: the fit (soft-L1 least squares from nine starts)
-    finds the turn and the scale that keep the engine's ties at their lengths (L1 pivot to
-    spigot, L2 pivot to hinge, L3 hinge to counterweight, L4 spigot to projectile in the
-    sling) and its beam straight. The roll then makes the counterweight hang plumb at rest
-    (ψ = −90°; not for a rigid counterweight, ``plumb_frames`` 0)."""
-    K = lens.matrix
-    focal, centre = lens.focal, (float(K[0, 2]), float(-K[1, 2]))
-    if not {"pivot", "spigot"} <= set(tracks):
-        raise TrebuchetInputError("the plane's pose from the engine needs the pivot and the "
-                                  f"spigot tracked; points: {sorted(tracks)}")
-    q0 = rectified(tracks["spigot"], focal, centre, 0.0, 0.0) - rectified(
-        tracks["pivot"], focal, centre, 0.0, 0.0)
-    s0 = float(np.nanmedian(np.hypot(*q0.T))) / engine.L1
-    best = None
-    for p0 in POSE_STARTS:
-        for y0 in POSE_STARTS:
-            sol = least_squares(lambda x: _tie_misfits(tracks, in_sling, engine, focal, centre,
-                                                       x), [p0, y0, s0], loss="soft_l1",
-                                f_scale=TIE_SCALE, x_scale=[0.1, 0.1, s0])
-            if best is None or sol.cost < best.cost:
-                best = sol
-    pitch, yaw, scale = (float(v) for v in best.x)
-    misfit = float(np.sqrt(np.mean(best.fun ** 2)))
-    roll, plumb = 0.0, 0
-    if engine.counterweight_offset is None and {"hinge", "counterweight"} <= set(tracks):
-        q = {k: rectified(tracks[k], focal, centre, pitch, yaw) for k in ("hinge",
-                                                                        "counterweight")}
-        d = q["counterweight"] - q["hinge"]
-        hang = np.arctan2(d[:, 1], d[:, 0])[at_rest]
-        hang = hang[np.isfinite(hang)]
-        if hang.size:
-            roll, plumb = float(np.median(hang)) + np.pi / 2, int(hang.size)
-    return PlanePose(pitch, yaw, roll, scale, focal, centre, misfit, plumb)
