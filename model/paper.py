@@ -93,12 +93,20 @@ class _Shot:
 def paper_values() -> list[PaperValue]:
     """The paper's quoted numbers and how the model computes each (the context ``c`` is a
     :class:`_Shot`)."""
-    kN, ms = 1e3, 1e3
     rows: list[PaperValue] = []
 
     def add(section, quantity, paper, unit, tol, compute, note=""):
         rows.append(PaperValue(section, quantity, paper, unit, tol, compute, note))
 
+    for values in (_table_values, _initial_values, _timing_values, _counterweight_values,
+                   _release_values):
+        values(add)
+    return rows
+
+
+def _table_values(add: Callable[..., None]) -> None:
+    """Table 1, Section 4 and Table 3 (t = 0−, 0+)."""
+    kN = 1e3
     # Table 1 and Section 4.
     add("Table 1", "moment of inertia I", 7704, "kg m²", 0.5, lambda c: c.scene.engine.I)
     add("Sect. 4", "available energy ΔU", 255, "kJ", 0.5, lambda c: c.delta_u / kN)
@@ -124,6 +132,11 @@ def paper_values() -> list[PaperValue]:
         for k, comp, val, tol in ((0, "h", val_h, tol_h), (1, "v", val_v, tol_v)):
             add("Table 3, 0+", f"{label} {comp}", val, "", tol,
                 lambda c, vec=vec, k=k, scale=scale: vec(c)[k] / getattr(c, scale))
+
+
+def _initial_values(add: Callable[..., None]) -> None:
+    """Section 9.5: the initial accelerations and torque."""
+    kN = 1e3
     # Section 9: initial accelerations and torque.
     add("Sect. 9.5", "θ̈ at 0+", 5.79, "rad/s²", 0.005, lambda c: c.initial.theta_dd)
     add("Sect. 9.5", "torque N_i at 0+", 45, "kN m", 0.5, lambda c: c.initial.N / kN)
@@ -131,6 +144,11 @@ def paper_values() -> list[PaperValue]:
         lambda c: c.initial.N_counterweight / kN)
     add("Sect. 9.5", "reduction of N_i by spigot and CM", 36, "%", 0.5,
         lambda c: 100 * (1 - c.initial.N / c.initial.N_counterweight))
+
+
+def _timing_values(add: Callable[..., None]) -> None:
+    """Section 11.1: the loads' time dependencies."""
+    ms = 1e3
     # Section 11: time dependencies.
     add("Sect. 11.1", "lift-off", 343, "ms", 0.5, lambda c: c.events["lift_off"] * ms,
         "the model lifts off 4.8 ms later; an independent implementation (docs/background.md) "
@@ -159,6 +177,11 @@ def paper_values() -> list[PaperValue]:
     add("Sect. 11.1", "sling's share of the max bending load", 10, "%", 1,
         lambda c: 100 * c.col("F_S_perp")[int(np.argmax(np.abs(c.col("F_R_perp"))))]
         / c.col("F_R_perp")[int(np.argmax(np.abs(c.col("F_R_perp"))))])
+
+
+def _counterweight_values(add: Callable[..., None]) -> None:
+    """Sections 11.2 and 11.3: the counterweight's force, the torque."""
+    ms = 1e3
     add("Sect. 11.2", "F_M at 0+ (paper: 1/3 of Mg; Table 3: 0.33)", 0.33, "Mg", 0.005,
         lambda c: c.col("F_M_abs")[0] / c.Mg)
     add("Sect. 11.2", "F_M at lift-off", 0.5, "Mg", 0.005,
@@ -176,6 +199,11 @@ def paper_values() -> list[PaperValue]:
     add("Sect. 11.3", "torque N crosses zero", 820, "ms", 15,
         lambda c: c.first_crossing(c.col("torque"), after=0.5) * ms,
         "the paper: 'near 820 ms ... at almost the same time' as the max bending (818 ms)")
+
+
+def _release_values(add: Callable[..., None]) -> None:
+    """Sections 11.4–12 and 2: the release, energies, powers, range."""
+    kN, ms = 1e3, 1e3
     add("Sect. 11.4", "climb at release", 40, "°", 0.5,
         lambda c: math.degrees(c.flight["release_angle"]),
         "39.5° at 997 ms; 40° is reached at 994 ms")
@@ -210,7 +238,6 @@ def paper_values() -> list[PaperValue]:
         lambda c: c.flight["release_speed"] ** 2 / c.scene.engine.L4 / c.scene.g,
         "the paper's footnote rounds v to 66 m/s and L4 to 5.5 m: 66²/(5.5·9.82) = 80.7")
     add("Sect. 2", "range in vacuum", 450, "m", 5, lambda c: c.flight["range"])
-    return rows
 
 
 def paper_comparison(scene: Scene | None = None) -> pd.DataFrame:
