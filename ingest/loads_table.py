@@ -23,11 +23,13 @@ from scipy.special import ndtr
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.advisory import resolution_advisories
 from trebuchet.ingest.events.lift_off import (
+    gap_widened_sd,
     lift_off_choice,
     lift_off_sd,
     lift_off_time,
     offset_widened_sd,
     rest_offset,
+    timing_widened_sd,
 )
 from trebuchet.ingest.events.trough_departure import StoneLiftOff
 from trebuchet.ingest.reconstruct_options import ReconstructOptions, propagation_order
@@ -39,6 +41,7 @@ from trebuchet.ingest.uncertainty import propagate
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.loads import loads
 from trebuchet.model.scene import Scene
+from trebuchet.model.simulate import simulate
 
 __all__ = ["STATE_COLUMNS", "shot_phases", "phase_loads", "state_frame", "event_variance",
            "detect_lift_off", "loads_from_smoothed", "ShotEvents", "shot_events"]
@@ -192,10 +195,13 @@ class ShotEvents:
 def _lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
               given: Mapping[str, float | None], trigger: float | None,
               release: float | None, options: ReconstructOptions,
-              stone_lift: StoneLiftOff | None) -> tuple[float | None, float, str, tuple, tuple]:
+              stone_lift: StoneLiftOff | None, tracked: np.ndarray | None
+              ) -> tuple[float | None, float, str, tuple, tuple]:
     """Lift-off (s or None), its sd (s), source, notes and warnings: given, or the normal
-    force's zero weighed with the stone's departure from the trough
-    (:func:`~.events.lift_off.lift_off_choice`)."""
+    force's zero, its sd widened where θ or ψ is not tracked near it
+    (:func:`~.events.lift_off.gap_widened_sd`), weighed with the stone's departure from
+    the trough (:func:`~.events.lift_off.lift_off_choice`), and widened where it lies far
+    from the scene's own lift-off (:func:`~.events.lift_off.timing_widened_sd`)."""
     if scene.projectile != "trough":
         return None, float("nan"), f"no trough (projectile {scene.projectile!r})", (), ()
     if "lift_off" in given:
@@ -204,17 +210,30 @@ def _lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
     lift, sd = detect_lift_off(state, cov, scene, trigger, release, options)
     if lift is None:
         return None, sd, "the normal force never reaches zero before release", (), ()
-    if stone_lift is None or stone_lift.time is None:
-        return lift, sd, "trough normal force reaches zero", (), ()
-    choice = lift_off_choice(lift, sd, stone_lift.time, stone_lift.sd)
-    notes = tuple(n for n in (choice.note, choice.warning) if n is not None)
-    warned = () if choice.warning is None else (choice.warning,)
-    return choice.time, choice.sd, choice.source, notes, warned
+    notes: list[str] = []
+    warned: list[str] = []
+    if tracked is not None:
+        sd, said = gap_widened_sd(state["t"].to_numpy(dtype=float), tracked[:2], lift, sd)
+        notes += [said] if said else []
+    source = "trough normal force reaches zero"
+    if stone_lift is not None and stone_lift.time is not None:
+        choice = lift_off_choice(lift, sd, stone_lift.time, stone_lift.sd)
+        lift, sd, source = choice.time, choice.sd, choice.source
+        notes += [n for n in (choice.note, choice.warning) if n is not None]
+        warned += [] if choice.warning is None else [choice.warning]
+    if trigger is not None:
+        span = simulate(scene, t_eval=[0.0]).attrs["events"].get("lift_off")
+        if span is not None:
+            sd, said = timing_widened_sd(lift, sd, trigger + span, span)
+            notes += [said] if said else []
+            warned += [said] if said else []
+    return lift, sd, source, tuple(notes), tuple(warned)
 
 
 def shot_events(est: pd.DataFrame, state: pd.DataFrame, cov: dict[str, np.ndarray],
                 scene: Scene, given: Mapping[str, float | None], options: ReconstructOptions,
-                release_sd: float | None, stone_lift: StoneLiftOff | None) -> ShotEvents:
+                release_sd: float | None, stone_lift: StoneLiftOff | None,
+                tracked: np.ndarray | None = None) -> ShotEvents:
     """The trigger and release of the smoothing (or ``given``), a release moved inside the
     sling's track (:func:`_release_within_sling_track`), their sd, and lift-off
     (:func:`_lift_off`); see :func:`loads_from_smoothed`."""
@@ -226,7 +245,9 @@ def shot_events(est: pd.DataFrame, state: pd.DataFrame, cov: dict[str, np.ndarra
     release = given["release"] if "release" in given else found.get("release")
     if scene.projectile == "none":
         release = None
-    elif release is not None and "release" not in given:
+    elif release is not None and "release" not in given and release_sd is None:
+        # the smoother's own search (a source's release stands: the sling's track may
+        # have a gap just before it)
         release = _release_within_sling_track(t, est["phi"].to_numpy(dtype=float), release)
     sd_event = options.event_sd_frames * float(np.median(np.diff(t)))
     sd = {"trigger": 0.0 if "trigger" in given or trigger is None
@@ -234,7 +255,7 @@ def shot_events(est: pd.DataFrame, state: pd.DataFrame, cov: dict[str, np.ndarra
           "release": 0.0 if "release" in given or release is None
           else (sd_event if release_sd is None else release_sd)}
     lift, sd["lift_off"], sources["lift_off"], notes, warned = _lift_off(
-        state, cov, scene, given, trigger, release, options, stone_lift)
+        state, cov, scene, given, trigger, release, options, stone_lift, tracked)
     return ShotEvents({"trigger": trigger, "lift_off": lift, "release": release}, sd, sources,
                       notes, warned)
 
@@ -244,7 +265,8 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                         options: ReconstructOptions | None = None,
                         release_sd: float | None = None,
                         lines: np.ndarray | None = None,
-                        stone_lift: StoneLiftOff | None = None) -> pd.DataFrame:
+                        stone_lift: StoneLiftOff | None = None,
+                        tracked: np.ndarray | None = None) -> pd.DataFrame:
     """Every load and its sd from the output of :func:`~trebuchet.ingest.smoothing.smooth.smooth`.
 
     ``lines``: the file's line number of each row (``read_log``'s ``ReadLog.lines``); the
@@ -255,8 +277,9 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     release time in ``est`` if known (default ``event_sd_frames`` frames);
     ``stone_lift``: the stone's departure from the trough
     (:func:`~.events.trough_departure.stone_lift_off`), weighed with the normal force's
-    zero (:func:`~.events.lift_off.lift_off_choice`). Returns the
-    frame of :func:`reconstruct` (without the log's own attrs).
+    zero (:func:`~.events.lift_off.lift_off_choice`); ``tracked`` (3, n) bool: which of θ,
+    ψ, φ the log tracked on each row (an untracked one near lift-off widens its sd).
+    Returns the frame of :func:`reconstruct` (without the log's own attrs).
     """
     options = options or ReconstructOptions()
     t = est["t"].to_numpy(dtype=float)
@@ -264,7 +287,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     fit = smoothing_of(est)
     cov = {a: np.asarray(c, dtype=float)[:, :3, :3] for a, c in fit.cov.items()}
     ev = shot_events(est, state, cov, scene, dict(events or {}), options, release_sd,
-                     stone_lift)
+                     stone_lift, tracked)
     trigger, release = ev.times["trigger"], ev.times["release"]
     phase = shot_phases(t, scene, trigger, ev.times["lift_off"], release)
     prop = propagate(lambda s: phase_loads(s, phase, scene, options.form, options.trough),

@@ -403,7 +403,8 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         and len(info.lines) == len(est) else None
     result = loads_from_smoothed(est, scene, events=given, options=options, lines=lines,
                                  release_sd=shot.release_sd,
-                                 stone_lift=stone_departure(read, est, scene))
+                                 stone_lift=stone_departure(read, est, scene),
+                                 tracked=np.isfinite(angles_log))
     if info is not None:
         result.attrs["log"] = info
     warned = () if shot.choice is None or shot.choice.warning is None \

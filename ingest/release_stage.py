@@ -146,7 +146,8 @@ def scene_timing(scene: Scene, trigger: float | None) -> SceneTiming:
     from trigger to release (:class:`~.events.release_sources.SceneTiming`)."""
     if trigger is None:
         return SceneTiming(None)
-    return SceneTiming(trigger + float(simulate(scene, t_eval=[0.0]).attrs["events"]["release"]))
+    span = float(simulate(scene, t_eval=[0.0]).attrs["events"]["release"])
+    return SceneTiming(trigger + span, span)
 
 
 def _warned(log: pd.DataFrame, *sentences: str | None) -> None:
@@ -353,8 +354,8 @@ def smoothed_with_release(log: pd.DataFrame, angles_log: np.ndarray, scene: Scen
             "release", "the tracked stone leaves its sling's circle" if seen_leaving
             else "end of the sling track"))
         release_sd = track_end[1]
-        if confirm and not seen_leaving:  # a stone seen in flight was released; a track
-            # that just ends may have been lost
+        if confirm:  # a track that just ends may have been lost; a stone seen leaving its
+            # circle is checked against the equations and the stone's flight fit
             return lost_or_released(log, angles_log, est, scene, options, smooth_events,
                                     q, r, track_end, plane)
     elif check:

@@ -86,3 +86,19 @@ def test_an_event_known_to_worse_than_a_frame_warns_unless_already_said():
     assert [s.split(" at ")[0] for s in said] == ["the lift-off", "the release"]
     assert "2.4 frames" in said[0]
     assert len(uncertain_events(done, ("the release is uncertain: ...",))) == 1
+
+
+def test_an_untracked_counterweight_near_lift_off_widens_its_sd():
+    """A stress-grid log whose counterweight's track was dropped from 60 ms before lift-off
+    on put lift-off 9.8 frames late with an sd of 0.3 frame."""
+    from trebuchet.ingest.events.lift_off import gap_widened_sd, timing_widened_sd
+
+    t = np.arange(0.0, 1.0, 1 / 240)
+    tracked = np.ones((2, t.size), bool)
+    assert gap_widened_sd(t, tracked, 0.5, 0.001) == (0.001, None)
+    tracked[1, (t > 0.44) & (t < 0.7)] = False
+    sd, said = gap_widened_sd(t, tracked, 0.5, 0.001)
+    assert sd > 0.26 / np.sqrt(12) and "not tracked" in said
+    sd, said = timing_widened_sd(0.5 + 0.041, 0.001, 0.5, 0.19)
+    assert 2 * sd >= 0.041 and "scene's own" in said
+    assert timing_widened_sd(0.5 + 0.01, 0.001, 0.5, 0.19) == (0.001, None)

@@ -295,3 +295,23 @@ def test_a_stone_stuck_on_a_frame_leg_gives_no_confident_release(tmp_path, horsd
     sd = done.event_sd["release"] * FPS
     warned = any("release is uncertain" in m or "disagree" in m for m in messages)
     assert abs(err) <= 2.0 or (abs(err) <= 2.0 * sd and warned), (err, sd, messages)
+
+
+def test_a_single_source_far_from_the_scene_s_release_covers_it_and_warns():
+    """Issue 26's stress grid: a template sliding onto a post gave a stone's "flight" 128
+    frames early with a stated 0.6 frame (the equations could not check it). One source
+    alone, further than a tenth of the trigger-to-release time from the scene's own
+    release: its sd covers both and it warns; near the scene's release it stands, with the
+    stone-alone floor of 1.5 frames."""
+    far = release_at_track_end(TRACK_END, _stone(1.3 - 128 * FRAME), None,
+                               SceneTiming(1.3, 1.0))
+    assert far.time == pytest.approx(1.3 - 128 * FRAME) and "scene's own release" in far.warning
+    assert 2.0 * far.sd >= 128 * FRAME
+    near = release_at_track_end(TRACK_END, _stone(1.28), None, SceneTiming(1.3, 1.0))
+    assert near.warning is None and near.sd >= 1.5 * FRAME
+
+
+def test_one_frame_of_flight_is_no_flight():
+    one = StoneRelease(1.28, 0.1 * FRAME, 0.1, 50.0, 1, LAST, "one frame")
+    c = release_at_track_end(TRACK_END, one, None, SceneTiming(1.3, 1.0))
+    assert c.time == END[0] and not c.confirmed and "1 frame(s) of flight" in c.warning

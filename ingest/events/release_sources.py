@@ -3,7 +3,8 @@
 A release is a release only where a source that sees it confirms it:
 
 - the stone's positions (:mod:`.stone_flight`): on its sling's circle before, in free
-  flight after; it needs a frame or more of flight, and a stone whose track ends where
+  flight after; it needs :data:`MIN_FLIGHT_FRAMES` frames of flight, and a stone whose
+  track ends where
   the tracker stuck on something (``ReadLog.held``) has no flight: its last frames are the
   template sliding onto the occluder (Kinovea's default tracker, left unedited, re-cuts
   its template on a frame leg and stays there; taken for flight, that gave a release 121
@@ -54,13 +55,19 @@ from trebuchet.ingest.events.stone_flight import StoneRelease
 
 __all__ = ["ReleaseChoice", "TrackEndRelease", "TrackEnd", "SceneTiming",
            "release_at_track_end", "release_without_track_end", "covering_sd",
-           "LOST_TRACK_SD", "KINDS"]
+           "LOST_TRACK_SD", "KINDS", "MIN_FLIGHT_FRAMES", "timing_checked",
+           "SCENE_TIMING_SHARE", "STONE_ALONE_FLOOR_FRAMES"]
 
 #: A sling track that ends is a lost track, not the release, where the engine's equations
 #: put the release this many of their sd after the first frame the track misses (at 1 sd,
 #: 3 of 4 simulated logs at 60–120 fps and 1–2° whose track ends at the release were
 #: taken for lost ones: the sd is the model's, the track end's own is a frame).
 LOST_TRACK_SD = 3.0
+
+#: A stone's flight confirms a release only with this many frames of flight fitted: one
+#: frame off the circle is as likely a wrong match as a flight (on the stress grid a fixed
+#: template's single frame "of flight" put the release 29 frames early).
+MIN_FLIGHT_FRAMES = 2
 
 #: What a :class:`ReleaseChoice` says: "track end" (the track's end is the release),
 #: "lost" (the track was lost before the release), "before end" (the release lies before
@@ -100,11 +107,25 @@ class TrackEnd:
 @dataclass(frozen=True)
 class SceneTiming:
     """The scene's own release in the log's time: ``time`` (s), the detected trigger plus
-    the simulated time from trigger to release (None: no trigger detected). Where no source
-    confirms a release, the distance to it bounds what the log's own release may be off
-    by."""
+    the simulated time from trigger to release, ``span`` (s; None: no trigger detected).
+    Where no source confirms a release, the distance to it bounds what the log's own
+    release may be off by; a single source more than :data:`SCENE_TIMING_SHARE` of the
+    span from it disagrees with the engine filmed."""
 
     time: float | None
+    span: float = float("nan")
+
+
+#: A release from one source alone (the stone's flight or the engine's equations) further
+#: than this share of the trigger-to-release time from the scene's own release disagrees
+#: with the engine (a filmed release lies within a few per cent of a right scene's: the
+#: shipped samples within 0.2 %); on the stress grid a template sliding onto a post gave
+#: a stone's "flight" 30 to 128 frames early.
+SCENE_TIMING_SHARE = 0.1
+#: A stone's flight that no other source checks gets this floor of sd (frames; with the
+#: equations beside it, ``TrackEndRelease.floor_frames``): an adaptive template's drift
+#: put it 2.7 frames late with a stated half frame.
+STONE_ALONE_FLOOR_FRAMES = 1.5
 
 
 @dataclass(frozen=True)
@@ -133,6 +154,26 @@ def covering_sd(sd: float, gap: float) -> float:
     anywhere between the two (uniform, RMS distance from the estimate ``|gap|/√3``) in
     quadrature with its own sd, so that ±2 sd reach past the rival."""
     return float(math.hypot(sd, abs(gap) / math.sqrt(3.0)))
+
+
+def timing_checked(choice: ReleaseChoice, timing: SceneTiming | None, frame: float
+                   ) -> ReleaseChoice:
+    """``choice`` (from one source alone) with its sd widened to cover the scene's own
+    release (:func:`covering_sd`) and a warning, where the two lie more than
+    :data:`SCENE_TIMING_SHARE` of the trigger-to-release span apart; else as it is."""
+    if timing is None or timing.time is None or not np.isfinite(timing.span):
+        return choice
+    gap = timing.time - choice.time
+    if abs(gap) <= SCENE_TIMING_SHARE * timing.span:
+        return choice
+    wide = covering_sd(choice.sd, gap)
+    said = (f"the release at {choice.time:.4f} s ({choice.source}) lies {abs(gap) / frame:.1f} "
+            f"frames from the scene's own release {timing.time:.4f} s and nothing else "
+            f"places it: it is taken with sd {_ms(wide)} ({wide / frame:.1f} frames) to cover "
+            "both")
+    return ReleaseChoice(choice.time, wide, choice.kind, choice.source, choice.note,
+                         said if choice.warning is None else f"{choice.warning}; {said}",
+                         choice.confirmed)
 
 
 def _model_usable(model: ModelRelease | None, settings: TrackEndRelease) -> bool:
@@ -195,20 +236,25 @@ def release_at_track_end(end: TrackEnd, stone: StoneRelease | None, model: Model
     """
     floor = settings.floor_frames * end.frame
     have_model = _model_usable(model, settings)
-    seen = stone is not None and stone.time is not None and not end.stone_held
+    seen = (stone is not None and stone.time is not None and not end.stone_held
+            and stone.flight_frames >= MIN_FLIGHT_FRAMES)
     if seen and have_model:
         return _stone_and_model(stone, model, end.last_frame, floor, settings)
     if seen:
-        s_time, s_sd = float(stone.time), float(np.hypot(stone.sd, floor))
+        s_time = float(stone.time)
+        s_sd = float(np.hypot(stone.sd, STONE_ALONE_FLOOR_FRAMES * end.frame))
         kind = "before end" if s_time < end.last_frame else "track end"
-        return ReleaseChoice(s_time, s_sd, kind, stone.how,
-                             f"release at {s_time:.4f} s (sd {_ms(s_sd)}): "
-                             f"{stone.how}; the engine's equations did not place it")
+        return timing_checked(ReleaseChoice(
+            s_time, s_sd, kind, stone.how, f"release at {s_time:.4f} s (sd {_ms(s_sd)}): "
+            f"{stone.how}; the engine's equations did not place it"), timing, end.frame)
     if not have_model:
         why = ("the stone's track ends where the tracker stood still on something, not in "
                "flight" if end.stone_held
+               else "no stone positions to fit" if stone is None
                else "the stone stays on its sling's circle to its track's end"
-               if stone is not None else "no stone positions to fit")
+               if stone.time is None
+               else f"the stone leaves its sling's circle for only {stone.flight_frames} "
+                    f"frame(s) of flight")
         return _unconfirmed(end.time, end.sd, "track end", "end of the sling track",
                             f"the end of the sling's track ({end.time:.4f} s) is confirmed by "
                             f"neither the engine's equations "
@@ -221,22 +267,22 @@ def release_at_track_end(end: TrackEnd, stone: StoneRelease | None, model: Model
             if end.stone_held else "")
     if m_time - LOST_TRACK_SD * m_sd > end.next_frame or (end.stone_held
                                                           and m_time > end.last_frame):
-        return ReleaseChoice(m_time, m_sd, "lost",
-                             f"the engine's equations (the sling's track was lost at "
-                             f"{end.last_frame:.4f} s{held})")
+        return timing_checked(ReleaseChoice(
+            m_time, m_sd, "lost", f"the engine's equations (the sling's track was lost at "
+            f"{end.last_frame:.4f} s{held})"), timing, end.frame)
     if m_time >= end.time - settings.agreement_sd * m_sd and not end.stone_held:
         return ReleaseChoice(end.time, end.sd, "track end", "end of the sling track",
                              f"the end of the sling's track at {end.time:.4f} s is the "
                              f"release: the engine's equations put it at {m_time:.4f} s "
                              f"(sd {_ms(m_sd)})")
-    return ReleaseChoice(
+    return timing_checked(ReleaseChoice(
         m_time, m_sd, "before end", "the engine's equations (the sling's track goes on "
         "past the release)", None,
         f"the sling's track ends at {end.last_frame:.4f} s, "
         f"{(end.last_frame - m_time) / end.frame:.1f} frames after the release the engine's "
         f"equations find at {m_time:.4f} s (sd {_ms(m_sd)}), and the stone was not seen to "
         f"leave its circle{held}: the tracker followed the stone in flight? The equations' "
-        "release is taken")
+        "release is taken"), timing, end.frame)
 
 
 def release_without_track_end(model: ModelRelease, jump: float | None, jump_sd: float,
@@ -267,14 +313,15 @@ def release_without_track_end(model: ModelRelease, jump: float | None, jump_sd: 
                             timing, frame)
     m_time, m_sd = float(model.time), float(model.sd)
     if jump is None:
-        return ReleaseChoice(m_time, m_sd, "equations", model.how,
-                             f"release at {m_time:.4f} s (sd {_ms(m_sd)}) from the engine's "
-                             "equations; no jump in the angles' acceleration marked it")
+        return timing_checked(ReleaseChoice(
+            m_time, m_sd, "equations", model.how, f"release at {m_time:.4f} s (sd "
+            f"{_ms(m_sd)}) from the engine's equations; no jump in the angles' acceleration "
+            "marked it"), timing, frame)
     gap = m_time - jump
     if abs(gap) <= settings.agreement_sd * m_sd:
         return ReleaseChoice(jump, max(jump_sd, m_sd), "jump", "jump in acceleration")
-    return ReleaseChoice(m_time, m_sd, "equations", model.how,
-                         f"release at {m_time:.4f} s (sd {_ms(m_sd)}) from the engine's "
-                         f"equations, {1e3 * abs(gap):.0f} ms "
-                         f"{'before' if gap < 0 else 'after'} the jump in acceleration at "
-                         f"{jump:.4f} s (the sling's track goes on past the release?)")
+    return timing_checked(ReleaseChoice(
+        m_time, m_sd, "equations", model.how, f"release at {m_time:.4f} s (sd {_ms(m_sd)}) "
+        f"from the engine's equations, {1e3 * abs(gap):.0f} ms "
+        f"{'before' if gap < 0 else 'after'} the jump in acceleration at {jump:.4f} s (the "
+        "sling's track goes on past the release?)"), timing, frame)
