@@ -315,3 +315,12 @@ def test_one_frame_of_flight_is_no_flight():
     one = StoneRelease(1.28, 0.1 * FRAME, 0.1, 50.0, 1, LAST, "one frame")
     c = release_at_track_end(TRACK_END, one, None, SceneTiming(1.3, 1.0))
     assert c.time == END[0] and not c.confirmed and "1 frame(s) of flight" in c.warning
+
+
+def test_equations_a_little_after_the_track_end_cover_it_and_warn():
+    """A track lost four frames before the release (behind a post), the equations' release
+    that late but not enough for a lost track: before, the track's end stood with an sd of
+    0.29 frame, 3.9 frames early (a stress-grid cell)."""
+    c = release_at_track_end(TRACK_END, None, _model(1.3 + 3.9 * FRAME, sd=1.4 * FRAME))
+    assert c.time == pytest.approx(1.3 + 3.9 * FRAME) and "cover both" in c.warning
+    assert 2.0 * c.sd >= 3.9 * FRAME

@@ -270,11 +270,22 @@ def release_at_track_end(end: TrackEnd, stone: StoneRelease | None, model: Model
         return timing_checked(ReleaseChoice(
             m_time, m_sd, "lost", f"the engine's equations (the sling's track was lost at "
             f"{end.last_frame:.4f} s{held})"), timing, end.frame)
-    if m_time >= end.time - settings.agreement_sd * m_sd and not end.stone_held:
+    gap = m_time - end.time
+    if abs(gap) <= settings.agreement_sd * m_sd and not end.stone_held:
         return ReleaseChoice(end.time, end.sd, "track end", "end of the sling track",
                              f"the end of the sling's track at {end.time:.4f} s is the "
                              f"release: the engine's equations put it at {m_time:.4f} s "
                              f"(sd {_ms(m_sd)})")
+    if gap > 0:  # later than the track's end, not far enough for a lost track
+        wide = covering_sd(m_sd, gap)
+        return timing_checked(ReleaseChoice(
+            m_time, wide, "lost", "the engine's equations (the sling's track ends "
+            f"{gap / end.frame:.1f} frames before)", None,
+            f"the sling's track ends at {end.last_frame:.4f} s and the engine's equations put "
+            f"the release {gap / end.frame:.1f} frames later, at {m_time:.4f} s (sd "
+            f"{_ms(m_sd)}): the track lost shortly before the release, or ended at it? The "
+            f"equations' release is taken with sd {_ms(wide)} to cover both"), timing,
+            end.frame)
     return timing_checked(ReleaseChoice(
         m_time, m_sd, "before end", "the engine's equations (the sling's track goes on "
         "past the release)", None,
