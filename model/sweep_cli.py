@@ -5,26 +5,69 @@
 
 ``--grid KEY=VALUES`` names a scene key as ``section.key`` (units of the scene file) and its
 values as a comma list (``10000,19100,30000``) or ``start:stop:count`` (``count`` evenly spaced
-values, both ends included). The table is written whole or not at all.
+values, both ends included). The table is written whole at the end; meanwhile each finished
+row goes to ``OUTPUT.partial``, which a killed run leaves behind and ``--resume`` continues.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import time
+from collections import Counter
+from pathlib import Path
 
 from trebuchet.errors import TrebuchetInputError, cli_command
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import ACCURACY
 from trebuchet.model.sweep import (
-    STATUS_OK,
+    Budget,
     SimulationOptions,
     accuracy_option,
     output_step,
     parse_grid_option,
     sweep,
 )
+from trebuchet.model.sweep_journal import journal_path
 from trebuchet.output import check_target, write_csv
+
+__all__ = ["register", "memory_size", "add_budget_options", "budget_of"]
+
+_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def memory_size(text: str) -> int:
+    """``--memory-budget``: bytes from ``2G``, ``500M``, ``1.5G`` or a plain number of bytes."""
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([KMGT]?)i?B?\s*", text,
+                     re.IGNORECASE)
+    if not m:
+        raise argparse.ArgumentTypeError(f"{text!r}: give a size such as 2G, 500M or 1.5G")
+    return int(float(m.group(1)) * _UNITS[m.group(2).upper()])
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number of seconds") from None
+    if not 0.0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text}: must be a positive number of seconds")
+    return value
+
+
+def add_budget_options(p: argparse.ArgumentParser) -> None:
+    """``--time-budget`` and ``--memory-budget`` (``sweep`` and ``design``)."""
+    default = Budget()
+    p.add_argument("--time-budget", type=_seconds, default=default.seconds, metavar="S",
+                   help="wall time one design may take in a worker process before it is "
+                        f"stopped and marked over_budget (default {default.seconds:g} s)")
+    p.add_argument("--memory-budget", type=memory_size, default=default.memory, metavar="SIZE",
+                   help="memory a worker may grow by running one design (default "
+                        f"{default.memory / 2**30:g}G)")
+
+
+def budget_of(args: argparse.Namespace) -> Budget:
+    return Budget(seconds=args.time_budget, memory=args.memory_budget)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,7 +75,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         "sweep", help="simulate a grid of designs and tabulate release, range and peak loads",
         description="Simulate every combination of the --grid values on SCENE and write one "
                     "row per design: the parameters, status and error (the reason a design "
-                    "was refused), release, range in vacuum, peak forces and torque (SI).")
+                    "was refused, failed or throws backward or into the ground), release, "
+                    "range in vacuum, peak forces and torque, counterweight clearance (SI). "
+                    "Finished rows go to OUTPUT.partial as they come; --resume continues a "
+                    "killed run from it.")
     p.add_argument("scene", help="base scene file (TOML)")
     p.add_argument("--grid", action="append", required=True, metavar="KEY=VALUES",
                    help="scene key section.key and its values: a,b,c or start:stop:count "
@@ -40,16 +86,21 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "release.velocity_angle_deg=30:60:7; repeat for more keys")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--workers", type=int, default=None,
-                   help="local processes (default: one per core; 1 runs in this process)")
+                   help="local processes (default: one per core; 1 runs in this process, "
+                        "without the budgets)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on a Dask cluster at ADDRESS (tcp://host:port; needs dask)")
-    p.add_argument("--dt", type=output_step, default=1e-3,
-                   help="output step in s, up to 0.1 (default 0.001)")
+    p.add_argument("--dt", type=output_step, default=None,
+                   help="take the peaks over the rows of a table at this step in s, up to 0.1 "
+                        "(default: over the continuous shot, faster)")
     p.add_argument("--accuracy", "--rtol", dest="rtol", type=accuracy_option, default="default",
                    help="fast, default, precise, or a relative tolerance such as 1e-8 "
                         f"(default: default = {ACCURACY['default']:g}); as for simulate")
     p.add_argument("--after-release", type=float, default=None,
-                   help="s of phase III to simulate (default: simulate's)")
+                   help="s of phase III the peaks cover (default: simulate's 0.5)")
+    add_budget_options(p)
+    p.add_argument("--resume", action="store_true",
+                   help="continue the killed sweep whose rows OUTPUT.partial holds")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=_sweep)
 
@@ -66,14 +117,35 @@ def _sweep(args: argparse.Namespace) -> int:
         raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
     options = SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release)
     options.check()
-    check_target(args.output)
+    out = check_target(args.output)
+    if out.resolve() == Path(args.scene).resolve():
+        raise TrebuchetInputError(f"-o {args.output}: is the scene file; give another output")
+    journal = journal_path(out)
     base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
-    table = sweep(base, grid, executor=args.scheduler, workers=args.workers,
-                  progress=not args.quiet, options=options)
+    try:
+        table = sweep(base, grid, executor=args.scheduler, workers=args.workers,
+                      progress=not args.quiet, options=options, budget=budget_of(args),
+                      journal=journal, resume=args.resume)
+    except KeyboardInterrupt:
+        kept = _rows_in(journal)
+        print(f"trebuchet: interrupted: {kept} finished designs kept in {journal}; run the "
+              "same command with --resume to continue", flush=True)
+        return 130
     seconds = time.perf_counter() - t0
-    write_csv(table, args.output)
-    ok = int((table["status"] == STATUS_OK).sum())
-    print(f"{len(table)} designs in {seconds:.1f} s: {ok} ok, {len(table) - ok} refused or "
-          f"failed (reason in column 'error') -> {args.output}")
+    write_csv(table, out)
+    journal.unlink(missing_ok=True)
+    counts = Counter(table["status"])
+    ok = counts.pop("ok", 0)
+    others = ", ".join(f"{n} {status}" for status, n in sorted(counts.items()))
+    print(f"{len(table)} designs in {seconds:.1f} s: {ok} ok"
+          + (f", {others} (reason in column 'error')" if others else "") + f" -> {out}")
     return 0
+
+
+def _rows_in(journal: Path) -> int:
+    try:
+        with open(journal, "rb") as f:
+            return max(0, sum(1 for _ in f) - 2)
+    except OSError:
+        return 0
