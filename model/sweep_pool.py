@@ -73,9 +73,11 @@ def _cap_address_space(memory: int | None) -> None:
         pass
 
 
-def _worker(conn: Any, slot: Any, evaluate: Callable[[Any], dict], memory: int | None) -> None:
+def _worker(conn: Any, slot: Any, evaluate: Callable[[Any], dict],
+            lost_row: Callable[[Any, str, str], dict], memory: int | None) -> None:
     """A worker's loop: receive a chunk of ``(index, params)`` items, evaluate each (its index
-    and start time in ``slot`` meanwhile), send back the rows; stop on None or a closed pipe."""
+    and start time in ``slot`` meanwhile), send back the rows; stop on None or a closed pipe.
+    An allocation beyond the address-space cap makes the design ``over_budget``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent()
     _cap_address_space(memory)
@@ -90,7 +92,13 @@ def _worker(conn: Any, slot: Any, evaluate: Callable[[Any], dict], memory: int |
         for item in chunk:
             slot[1] = time.monotonic()
             slot[0] = float(item[0])
-            rows.append(evaluate(item))
+            try:
+                rows.append(evaluate(item))
+            except MemoryError:
+                rows.append(lost_row(item, STATUS_OVER_BUDGET, "over the memory budget: an "
+                                     f"allocation failed beyond {memory / 2**20:.0f} MiB"))
+            except Exception as exc:  # noqa: BLE001 - the row says what went wrong
+                rows.append(lost_row(item, STATUS_FAILED, f"{type(exc).__name__}: {exc}"))
         slot[0] = _IDLE
         try:
             conn.send(rows)
@@ -101,11 +109,12 @@ def _worker(conn: Any, slot: Any, evaluate: Callable[[Any], dict], memory: int |
 class _Worker:
     """One worker process, its pipe, its shared slot and the chunk it holds."""
 
-    def __init__(self, ctx: Any, evaluate: Callable[[Any], dict], memory: int | None) -> None:
+    def __init__(self, ctx: Any, evaluate: Callable[[Any], dict],
+                 lost_row: Callable[[Any, str, str], dict], memory: int | None) -> None:
         self.slot = ctx.RawArray("d", [_IDLE, 0.0])
         self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=_worker, args=(child, self.slot, evaluate, memory),
-                                daemon=True)
+        self.proc = ctx.Process(target=_worker, args=(child, self.slot, evaluate, lost_row,
+                                                      memory), daemon=True)
         self.proc.start()
         child.close()
         self.chunk: list | None = None
@@ -158,13 +167,21 @@ def run_pool(chunks: Sequence[list], evaluate: Callable[[Any], dict], workers: i
     over its budget ``lost_row(item, "over_budget", reason)``."""
     ctx = _context()
     queue = collections.deque(list(c) for c in chunks if len(c))
-    pool = [_Worker(ctx, evaluate, budget.memory) for _ in range(min(workers, len(queue)))]
+    pool = [_Worker(ctx, evaluate, lost_row, budget.memory)
+            for _ in range(min(workers, len(queue)))]
     idle_deaths = 0
     try:
         while queue or any(w.chunk is not None for w in pool):
-            for w in pool:
+            for i, w in enumerate(pool):
                 if w.chunk is None and queue:
-                    w.give(queue.popleft())
+                    if not w.proc.is_alive():  # died idle: a new one takes its place
+                        w.stop(kill=True)
+                        pool[i] = w = _Worker(ctx, evaluate, lost_row, budget.memory)
+                    try:
+                        w.give(queue.popleft())
+                    except (OSError, ValueError):  # died just now: its design goes back
+                        queue.appendleft(w.chunk)
+                        w.chunk = None
             busy = [w for w in pool if w.chunk is not None]
             ready = wait([w.conn for w in busy] + [w.proc.sentinel for w in busy],
                          timeout=_POLL if budget.seconds is None else min(_POLL,
@@ -193,7 +210,7 @@ def run_pool(chunks: Sequence[list], evaluate: Callable[[Any], dict], workers: i
                                            f"designs ({reason})")
                 if rest:
                     queue.appendleft(rest)
-                pool[i] = _Worker(ctx, evaluate, budget.memory)
+                pool[i] = _Worker(ctx, evaluate, lost_row, budget.memory)
                 if culprit:
                     yield [lost_row(culprit[0], status, reason)]
     finally:
