@@ -29,7 +29,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from concurrent.futures import Executor
 from functools import partial
 from pathlib import Path
@@ -59,12 +59,12 @@ from trebuchet.model.sweep_design import (
     summarize,
 )
 from trebuchet.model.sweep_journal import open_journal, sweep_digest
-from trebuchet.model.sweep_pool import run_pool
+from trebuchet.model.sweep_pool import WorkerPool
 
 __all__ = [
     "SUMMARY_COLUMNS", "SimulationOptions", "Budget", "output_step", "accuracy_option",
     "parse_grid_values", "parse_grid_option", "check_grid", "grid_designs", "design_scene",
-    "summarize", "evaluate_design", "evaluate_designs", "sweep", "default_workers",
+    "summarize", "evaluate_design", "DesignRunner", "sweep", "default_workers",
 ]
 
 
@@ -102,50 +102,65 @@ def _is_dask_client(obj: Any) -> bool:
     return type(obj).__module__.split(".")[0] == "distributed" and hasattr(obj, "map")
 
 
-def _warm(evaluate: Callable[[Any], dict], item: Any) -> None:
-    """Load the compiled kernels in this process before workers are forked from it."""
-    with contextlib.suppress(Exception):
-        evaluate(item)
+class DesignRunner:
+    """Runs batches of designs where :func:`sweep`'s ``executor`` and ``workers`` say, keeping
+    its worker processes (or its Dask client) between batches: the optimiser's way in.
+    Use it in a ``with`` block; :meth:`run` yields the rows of each batch as they finish."""
 
+    def __init__(self, base: Scene, *, outputs: Sequence[str] = tuple(SUMMARY_COLUMNS),
+                 executor: Executor | str | Any | None = None, workers: int | None = None,
+                 options: SimulationOptions = _OPTIONS, budget: Budget = _BUDGET,
+                 lost_after: float = LOST_AFTER) -> None:
+        if not (executor is None or isinstance(executor, Executor | str)
+                or _is_dask_client(executor)):
+            raise TrebuchetInputError(f"executor {executor!r}: give None, a concurrent.futures "
+                                      "Executor, a Dask scheduler address or a Dask Client")
+        self.base, self.outputs, self.executor = base, tuple(outputs), executor
+        self.workers = workers or default_workers()
+        self.options, self.budget, self.lost_after = options, budget, lost_after
+        self._evaluate = partial(evaluate_design, base, options=options, outputs=self.outputs)
+        self._lost = partial(failed_row, outputs=self.outputs)
+        self._stack = contextlib.ExitStack()
+        self._pool: WorkerPool | None = None
+        self._client: Any = None
+        self._warm = False
 
-def evaluate_designs(base: Scene, items: Sequence[tuple[int, Mapping[str, Any]]], *,
-                     outputs: Sequence[str] = tuple(SUMMARY_COLUMNS),
-                     executor: Executor | str | Any | None = None, workers: int | None = None,
-                     options: SimulationOptions = _OPTIONS,
-                     budget: Budget = _BUDGET, lost_after: float = LOST_AFTER
-                     ) -> Iterator[list[dict[str, Any]]]:
-    """The rows of designs ``items`` (``(index, params)`` pairs), in batches as they finish,
-    wherever :func:`sweep`'s ``executor`` and ``workers`` say; the optimiser's way in."""
-    items = list(items)
-    if not items:
-        return
-    evaluate = partial(evaluate_design, base, options=options, outputs=tuple(outputs))
-    lost = partial(_lost_row, outputs=tuple(outputs))
-    workers = workers or default_workers()
-    if executor is None and (workers == 1 or len(items) == 1):
-        for item in items:
-            yield [evaluate(item)]
-    elif executor is None:
-        _warm(evaluate, items[0])
-        yield from run_pool(_chunks(items, _chunk_size(len(items), workers)), evaluate,
-                            workers, budget, lost)
-    elif isinstance(executor, Executor):
-        size = _chunk_size(len(items), workers)
-        yield from executor.map(partial(_evaluate_chunk, base=base, options=options,
-                                        outputs=tuple(outputs)), _chunks(items, size))
-    elif isinstance(executor, str) or _is_dask_client(executor):
-        with _dask_client(executor) as client:
-            n = max(1, sum(client.nthreads().values()))
-            yield from run_dask(client, _chunks(items, _chunk_size(len(items), n)),
-                                _evaluate_chunk, lost, budget, lost_after, base=base,
-                                options=options, outputs=tuple(outputs))
-    else:
-        raise TrebuchetInputError(f"executor {executor!r}: give None, a concurrent.futures "
-                                  "Executor, a Dask scheduler address or a Dask Client")
+    def __enter__(self) -> DesignRunner:
+        return self
 
+    def __exit__(self, *exc: object) -> None:
+        self._stack.close()
 
-def _lost_row(item: Any, status: str, error: str, outputs: Sequence[str]) -> dict[str, Any]:
-    return failed_row(item, status, error, outputs)
+    def run(self, items: Sequence[tuple[int, Mapping[str, Any]]]
+            ) -> Iterator[list[dict[str, Any]]]:
+        """The rows of ``items`` (``(index, params)`` pairs), in batches as they finish."""
+        items = list(items)
+        if not items:
+            return
+        if self.executor is None and self.workers == 1:
+            for item in items:
+                yield [self._evaluate(item)]
+        elif self.executor is None:
+            if not self._warm:  # the compiled kernels, loaded once before workers fork
+                self._warm = True
+                with contextlib.suppress(Exception):
+                    self._evaluate(items[0])
+            if self._pool is None:
+                self._pool = self._stack.enter_context(
+                    WorkerPool(self._evaluate, self.workers, self.budget, self._lost))
+            yield from self._pool.run(_chunks(items, _chunk_size(len(items), self.workers)))
+        elif isinstance(self.executor, Executor):
+            size = _chunk_size(len(items), self.workers)
+            yield from self.executor.map(partial(_evaluate_chunk, base=self.base,
+                                                 options=self.options, outputs=self.outputs),
+                                         _chunks(items, size))
+        else:
+            if self._client is None:
+                self._client = self._stack.enter_context(_dask_client(self.executor))
+            n = max(1, sum(self._client.nthreads().values()))
+            yield from run_dask(self._client, _chunks(items, _chunk_size(len(items), n)),
+                                _evaluate_chunk, self._lost, self.budget, self.lost_after,
+                                base=self.base, options=self.options, outputs=self.outputs)
 
 
 def sweep(base: Scene, grid: Mapping[str, Sequence[float]], *,
@@ -213,12 +228,12 @@ def sweep(base: Scene, grid: Mapping[str, Sequence[float]], *,
                                         and str(r["error"]).startswith(LOST))]
     done = {r["design"] for r in rows}
     todo = [item for item in items if item[0] not in done]
-    with contextlib.closing(log) if log else contextlib.nullcontext(), \
+    runner = DesignRunner(base, outputs=outputs, executor=executor, workers=workers,
+                          options=options, budget=budget, lost_after=lost_after)
+    with contextlib.closing(log) if log else contextlib.nullcontext(), runner, \
             tqdm(total=len(items), initial=len(done), disable=not progress, unit="design",
                  desc="sweep") as bar:
-        for batch in evaluate_designs(base, todo, outputs=outputs, executor=executor,
-                                      workers=workers, options=options, budget=budget,
-                                      lost_after=lost_after):
+        for batch in runner.run(todo):
             rows.extend(batch)
             if log:
                 log.append(batch)

@@ -34,7 +34,7 @@ from typing import Any
 
 from trebuchet.model.sweep_design import LOST, STATUS_FAILED, STATUS_OVER_BUDGET, Budget
 
-__all__ = ["run_pool"]
+__all__ = ["WorkerPool", "run_pool"]
 
 _IDLE = -1.0
 _POLL = 0.2  # s between the parent's looks at running designs (time, memory)
@@ -158,64 +158,107 @@ def _death(exitcode: int | None) -> str:
     return f"exit status {exitcode}"
 
 
+class WorkerPool:
+    """Worker processes kept between batches of designs (the optimiser's generations):
+    :meth:`run` evaluates chunks in them, :meth:`close` (or leaving the ``with`` block) stops
+    them. Each item is ``(index, params)``; a design whose worker died gets
+    ``lost_row(item, "failed", reason)``, one over its budget
+    ``lost_row(item, "over_budget", reason)``."""
+
+    def __init__(self, evaluate: Callable[[Any], dict], workers: int, budget: Budget,
+                 lost_row: Callable[[Any, str, str], dict]) -> None:
+        self.evaluate, self.workers, self.budget, self.lost_row = (evaluate, workers, budget,
+                                                                   lost_row)
+        self._ctx = _context()
+        self._pool: list[_Worker] = []
+        self._idle_deaths = 0
+
+    def __enter__(self) -> WorkerPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        for w in self._pool:
+            w.stop(kill=w.chunk is not None)
+        self._pool = []
+
+    def _new(self) -> _Worker:
+        return _Worker(self._ctx, self.evaluate, self.lost_row, self.budget.memory)
+
+    def run(self, chunks: Sequence[list]) -> Iterator[list[dict]]:
+        """Yield the rows of each chunk as it finishes (a chunk cut by a dead worker comes
+        back in parts)."""
+        queue = collections.deque(list(c) for c in chunks if len(c))
+        while len(self._pool) < min(self.workers, len(queue)):
+            self._pool.append(self._new())
+        timeout = _POLL if self.budget.seconds is None else min(_POLL, self.budget.seconds / 4)
+        try:
+            while queue or any(w.chunk is not None for w in self._pool):
+                self._hand_out(queue)
+                busy = [w for w in self._pool if w.chunk is not None]
+                ready = wait([w.conn for w in busy] + [w.proc.sentinel for w in busy], timeout)
+                for i, w in enumerate(self._pool):
+                    if w.chunk is None:
+                        continue
+                    rows = _receive(w) if w.conn in ready or w.proc.sentinel in ready else None
+                    if rows is not None:
+                        w.chunk = None
+                        yield rows
+                        continue
+                    lost = self._stop_if_due(i, w, queue)
+                    if lost:
+                        yield lost
+        finally:  # a run left early (Ctrl-C, an error): busy workers hold stale chunks
+            for i, w in enumerate(self._pool):
+                if w.chunk is not None:
+                    w.stop(kill=True)
+                    self._pool[i] = self._new()
+
+    def _hand_out(self, queue: collections.deque) -> None:
+        """A chunk to every idle worker (a worker that died idle is replaced first)."""
+        for i, w in enumerate(self._pool):
+            if w.chunk is not None or not queue:
+                continue
+            if not w.proc.is_alive():
+                w.stop(kill=True)
+                self._pool[i] = w = self._new()
+            try:
+                w.give(queue.popleft())
+            except (OSError, ValueError):  # died just now: its chunk goes back
+                queue.appendleft(w.chunk)
+                w.chunk = None
+
+    def _stop_if_due(self, i: int, w: _Worker, queue: collections.deque) -> list[dict]:
+        """Stop a worker that died or whose design is over its budget: the design's row, the
+        rest of its chunk back in the queue, a new worker in its place."""
+        verdict = _verdict(w, self.budget)
+        if verdict is None:
+            return []
+        status, reason = verdict
+        index = w.running()
+        w.stop(kill=True)
+        chunk, w.chunk = w.chunk, None
+        culprit = [item for item in chunk if item[0] == index]
+        rest = [item for item in chunk if item[0] != index]
+        if not culprit:
+            self._idle_deaths += 1
+            if self._idle_deaths > 3 * self.workers + 3:
+                raise RuntimeError(f"sweep: worker processes keep dying between designs "
+                                   f"({reason})")
+        if rest:
+            queue.appendleft(rest)
+        self._pool[i] = self._new()
+        return [self.lost_row(culprit[0], status, reason)] if culprit else []
+
+
 def run_pool(chunks: Sequence[list], evaluate: Callable[[Any], dict], workers: int,
              budget: Budget, lost_row: Callable[[Any, str, str], dict],
              ) -> Iterator[list[dict]]:
-    """Evaluate every item of ``chunks`` (each item ``(index, params)``) in ``workers`` local
-    processes; yield the rows of each chunk as it finishes (a chunk cut by a dead worker comes
-    back in parts). A design whose worker died gets ``lost_row(item, "failed", reason)``, one
-    over its budget ``lost_row(item, "over_budget", reason)``."""
-    ctx = _context()
-    queue = collections.deque(list(c) for c in chunks if len(c))
-    pool = [_Worker(ctx, evaluate, lost_row, budget.memory)
-            for _ in range(min(workers, len(queue)))]
-    idle_deaths = 0
-    try:
-        while queue or any(w.chunk is not None for w in pool):
-            for i, w in enumerate(pool):
-                if w.chunk is None and queue:
-                    if not w.proc.is_alive():  # died idle: a new one takes its place
-                        w.stop(kill=True)
-                        pool[i] = w = _Worker(ctx, evaluate, lost_row, budget.memory)
-                    try:
-                        w.give(queue.popleft())
-                    except (OSError, ValueError):  # died just now: its design goes back
-                        queue.appendleft(w.chunk)
-                        w.chunk = None
-            busy = [w for w in pool if w.chunk is not None]
-            ready = wait([w.conn for w in busy] + [w.proc.sentinel for w in busy],
-                         timeout=_POLL if budget.seconds is None else min(_POLL,
-                                                                          budget.seconds / 4))
-            for i, w in enumerate(pool):
-                if w.chunk is None:
-                    continue
-                rows = _receive(w) if w.conn in ready or w.proc.sentinel in ready else None
-                if rows is not None:
-                    w.chunk = None
-                    yield rows
-                    continue
-                verdict = _verdict(w, budget)
-                if verdict is None:
-                    continue
-                status, reason = verdict
-                index = w.running()
-                w.stop(kill=True)
-                chunk, w.chunk = w.chunk, None
-                culprit = [item for item in chunk if item[0] == index]
-                rest = [item for item in chunk if item[0] != index]
-                if not culprit:
-                    idle_deaths += 1
-                    if idle_deaths > 3 * workers + 3:
-                        raise RuntimeError(f"sweep: worker processes keep dying between "
-                                           f"designs ({reason})")
-                if rest:
-                    queue.appendleft(rest)
-                pool[i] = _Worker(ctx, evaluate, lost_row, budget.memory)
-                if culprit:
-                    yield [lost_row(culprit[0], status, reason)]
-    finally:
-        for w in pool:
-            w.stop(kill=w.chunk is not None)
+    """:meth:`WorkerPool.run` once, in a pool of its own."""
+    with WorkerPool(evaluate, workers, budget, lost_row) as pool:
+        yield from pool.run(chunks)
 
 
 def _receive(w: _Worker) -> list[dict] | None:
