@@ -12,7 +12,6 @@ row goes to ``OUTPUT.partial``, which a killed run leaves behind and ``--resume`
 from __future__ import annotations
 
 import argparse
-import re
 import time
 from collections import Counter
 from pathlib import Path
@@ -21,54 +20,17 @@ from trebuchet.errors import TrebuchetInputError, cli_command
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import ACCURACY
 from trebuchet.model.sweep import (
-    Budget,
     SimulationOptions,
     accuracy_option,
     output_step,
     parse_grid_option,
     sweep,
 )
+from trebuchet.model.sweep_design import add_budget_options, budget_of
 from trebuchet.model.sweep_journal import journal_path
 from trebuchet.output import check_target, write_csv
 
-__all__ = ["register", "memory_size", "add_budget_options", "budget_of"]
-
-_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
-
-
-def memory_size(text: str) -> int:
-    """``--memory-budget``: bytes from ``2G``, ``500M``, ``1.5G`` or a plain number of bytes."""
-    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([KMGT]?)i?B?\s*", text,
-                     re.IGNORECASE)
-    if not m:
-        raise argparse.ArgumentTypeError(f"{text!r}: give a size such as 2G, 500M or 1.5G")
-    return int(float(m.group(1)) * _UNITS[m.group(2).upper()])
-
-
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: not a number of seconds") from None
-    if not 0.0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"{text}: must be a positive number of seconds")
-    return value
-
-
-def add_budget_options(p: argparse.ArgumentParser) -> None:
-    """``--time-budget`` and ``--memory-budget`` (``sweep`` and ``design``)."""
-    default = Budget()
-    p.add_argument("--time-budget", type=_seconds, default=default.seconds, metavar="S",
-                   help="wall time one design may take in a worker process before it is "
-                        f"stopped and marked over_budget (default {default.seconds:g} s)")
-    p.add_argument("--memory-budget", type=memory_size, default=default.memory, metavar="SIZE",
-                   help="memory a worker may grow by running one design (default "
-                        f"{default.memory / 2**30:g}G)")
-
-
-def budget_of(args: argparse.Namespace) -> Budget:
-    return Budget(seconds=args.time_budget, memory=args.memory_budget)
-
+__all__ = ["register"]
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(

@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import math
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -59,7 +60,7 @@ __all__ = [
     "STATUS_OVER_BUDGET", "STATUS_BACKWARD", "STATUS_GROUND", "SimulationOptions",
     "output_step", "accuracy_option", "parse_grid_values", "parse_grid_option", "check_grid",
     "grid_designs", "design_scene", "summarize", "evaluate_design", "failed_row", "Budget",
-    "LOST",
+    "LOST", "memory_size", "add_budget_options", "budget_of",
 ]
 
 #: Summary outputs of a design, with their units (the figures of
@@ -149,6 +150,43 @@ def accuracy_option(text: str) -> float | str:
     if not 0.0 < value < 1e-2:
         raise argparse.ArgumentTypeError(f"{text}: a tolerance must lie between 0 and 1e-2")
     return value
+
+
+_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def memory_size(text: str) -> int:
+    """``--memory-budget``: bytes from ``2G``, ``500M``, ``1.5G`` or a plain number of bytes."""
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([KMGT]?)i?B?\s*", text,
+                     re.IGNORECASE)
+    if not m:
+        raise argparse.ArgumentTypeError(f"{text!r}: give a size such as 2G, 500M or 1.5G")
+    return int(float(m.group(1)) * _UNITS[m.group(2).upper()])
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number of seconds") from None
+    if not 0.0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text}: must be a positive number of seconds")
+    return value
+
+
+def add_budget_options(p: argparse.ArgumentParser) -> None:
+    """``--time-budget`` and ``--memory-budget`` (``sweep`` and ``design``)."""
+    default = Budget()
+    p.add_argument("--time-budget", type=_seconds, default=default.seconds, metavar="S",
+                   help="wall time one design may take in a worker process before it is "
+                        f"stopped and marked over_budget (default {default.seconds:g} s)")
+    p.add_argument("--memory-budget", type=memory_size, default=default.memory, metavar="SIZE",
+                   help="memory a worker may grow by running one design (default "
+                        f"{default.memory / 2**30:g}G)")
+
+
+def budget_of(args: argparse.Namespace) -> Budget:
+    return Budget(seconds=args.time_budget, memory=args.memory_budget)
 
 
 # --------------------------------------------------------------------------- grid

@@ -27,7 +27,7 @@ from trebuchet.version import __version__
 __all__ = [
     "Scene", "Engine", "Start", "Release", "simulate", "forces", "read_log", "smooth",
     "reconstruct", "compare", "TrebuchetInputError", "TrebuchetDataWarning", "ModelValidityWarning",
-    "__version__",
+    "__version__", "design",
 ]
 
 _LAZY = {
@@ -35,6 +35,7 @@ _LAZY = {
     "smooth": ("trebuchet.ingest.smoothing.smooth", "smooth"),
     "reconstruct": ("trebuchet.ingest.reconstruct", "reconstruct"),
     "compare": ("trebuchet.ingest.compare", "compare"),
+    "design": ("trebuchet.model.design", "design"),
 }
 
 

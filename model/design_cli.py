@@ -1,0 +1,117 @@
+"""Sub-command ``trebuchet design``: the best design under limits, written as a scene file.
+
+    trebuchet design SCENE.toml -o BEST.toml --vary engine.L4=3:8 --vary engine.L3=1:4 \\
+        --vary release.velocity_angle_deg=25:55 --maximize range \\
+        --limit 'F_R_peak<=468905' --limit 'F_S_peak<=54010' --limit 'cw_clearance>=1' \\
+        [--workers N] [--scheduler ADDRESS] [--seed N] [--plot trade.png]
+
+Prints a table of the start against the best; BEST.toml is a valid scene whose comment block
+gives the objective and each limit with its margin. A mistake (an unknown key or figure,
+bounds the wrong way round, a limit that does not parse, limits no design meets): exit 2, one
+line, nothing written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from trebuchet.errors import TrebuchetInputError, cli_command
+from trebuchet.model.design import design
+from trebuchet.model.design_output import plot_trade, summary_table, write_best
+from trebuchet.model.design_problem import parse_vary
+from trebuchet.model.design_search import SearchOptions
+from trebuchet.model.scene import Scene
+from trebuchet.model.simulate import ACCURACY
+from trebuchet.model.sweep import SimulationOptions, accuracy_option
+from trebuchet.model.sweep_design import add_budget_options, budget_of
+from trebuchet.output import check_target
+
+__all__ = ["register"]
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text}: must be at least 1")
+    return value
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    defaults = SearchOptions()
+    p = sub.add_parser(
+        "design", help="the best design under limits on its loads (an optimiser, not a grid)",
+        description="Vary scene keys between bounds to maximise or minimise one figure of the "
+                    "sweep table while every --limit holds: differential evolution with the "
+                    "limits as constraints, then a local polish; the best design is verified "
+                    "by simulating it again at the default accuracy and written as a scene "
+                    "file with its objective and margins in a comment block.")
+    p.add_argument("scene", help="the start scene (TOML)")
+    p.add_argument("-o", "--output", required=True, help="the best design, a scene file (TOML)")
+    p.add_argument("--vary", action="append", required=True, metavar="KEY=LO:HI",
+                   help="a scene key section.key (units of the scene file) and its bounds, "
+                        "e.g. engine.L4=3:8; repeat for more keys")
+    goal = p.add_mutually_exclusive_group(required=True)
+    goal.add_argument("--maximize", metavar="FIGURE",
+                      help="a figure of the sweep table (range, F_R_peak, ..., cw_clearance)")
+    goal.add_argument("--minimize", metavar="FIGURE", help="as --maximize, the other way")
+    p.add_argument("--limit", action="append", default=[], metavar="FIGURE<=VALUE",
+                   help="FIGURE<=VALUE or FIGURE>=VALUE in SI units, e.g. F_R_peak<=468905 or "
+                        "cw_clearance>=1.0; repeat for more")
+    p.add_argument("--workers", type=int, default=None,
+                   help="local processes (default: one per core; 1 runs in this process)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the designs on a Dask cluster at ADDRESS (tcp://host:port)")
+    p.add_argument("--seed", type=int, default=None, help="makes the search repeatable")
+    p.add_argument("--plot", default=None, metavar="FILE.png",
+                   help="draw the trade: the objective against the binding limit, with the "
+                        "Pareto front of the designs tried, the start and the best")
+    p.add_argument("--accuracy", "--rtol", dest="rtol", type=accuracy_option, default="default",
+                   help="solver tolerance of the search: fast, default, precise or a number "
+                        f"(default {ACCURACY['default']:g}); the best is verified at default")
+    p.add_argument("--generations", type=_count, default=defaults.generations,
+                   help=f"generations of evolution at most (default {defaults.generations})")
+    p.add_argument("--popsize", type=_count, default=defaults.popsize,
+                   help=f"designs per varied key in a generation (default {defaults.popsize})")
+    add_budget_options(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=_design)
+
+
+@cli_command
+def _design(args: argparse.Namespace) -> int:
+    vary: dict[str, tuple[float, float]] = {}
+    for text in args.vary:
+        key, bounds = parse_vary(text)
+        if key in vary:
+            raise TrebuchetInputError(f"--vary {key}: given twice")
+        vary[key] = bounds
+    if args.workers is not None and args.workers < 1:
+        raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
+    out = check_target(args.output)
+    plot = check_target(args.plot) if args.plot else None
+    for target in (out, plot):
+        if target is not None and target.resolve() == Path(args.scene).resolve():
+            raise TrebuchetInputError(f"{target}: is the scene file; give another output")
+    if plot is not None and plot.resolve() == out.resolve():
+        raise TrebuchetInputError(f"--plot {plot}: is the -o output too; give another name")
+    base = Scene.from_toml(args.scene)
+    t0 = time.perf_counter()
+    result = design(base, vary, maximize=args.maximize, minimize=args.minimize,
+                    limits=args.limit, seed=args.seed, workers=args.workers,
+                    executor=args.scheduler, progress=not args.quiet,
+                    options=SimulationOptions(rtol=args.rtol), budget=budget_of(args),
+                    search_options=SearchOptions(popsize=args.popsize,
+                                                 generations=args.generations))
+    seconds = time.perf_counter() - t0
+    write_best(result, out, args.scene)
+    if plot is not None:
+        plot_trade(result, plot)
+    print(summary_table(result))
+    print(f"{result.evaluations} designs in {seconds:.1f} s; best -> {out}"
+          + (f", trade -> {plot}" if plot else ""))
+    return 0
