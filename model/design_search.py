@@ -52,7 +52,7 @@ class SearchOptions:
     solver's own accuracy is ~1e-9, so that an independent simulation meets the limits too)."""
 
     popsize: int = 8
-    generations: int = 30
+    generations: int = 20
     tol: float = 0.0
     polish: bool = True
     polish_steps: int = 60
