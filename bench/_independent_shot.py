@@ -201,7 +201,7 @@ def _energy_error(eq, par, phases, scene) -> float:
     projectile's energy is conserved apart once it flies)."""
     L1, L2, LCM, L3, L4, mb, M, m, I, H, g = par
     out, e0, du = 0.0, None, scene.delta_U
-    for phase, sol, a, b in phases[:2]:
+    for _phase, sol, a, b in phases[:2]:
         for t in np.linspace(a, b, 200):
             y = sol.sol(t)
             r_M = np.asarray(eq["r_M"](*y, *par), dtype=float).ravel()

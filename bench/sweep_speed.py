@@ -8,10 +8,10 @@ table. The baseline, timed in the same run: one ``simulate()`` call of the paper
 ``shot_figures()`` call (the summary-only path a sweep runs per design), and the sweep in this
 process (``workers=1``) and on every local worker process the machine gives (their start
 included), on the summary path and, for comparison, with ``--dt 0.001`` (the peaks over a
-table's rows, as sweeps took them before). ``ratio_to_simulate`` is the wall time per design
-over one simulate() call, timed just before and after each case (``simulate_ms``, their mean:
-the machine's load moves both alike); the target (issue 25) is 0.25. The parallel tables must equal the
-serial one row for row; the benchmark checks it.
+table's rows, as sweeps took them before). ``ratio_to_simulate`` is the wall time per
+design over one simulate() call, timed just before and after each case (``simulate_ms``,
+their mean: the machine's load moves both alike); the target (issue 25) is 0.25. The
+parallel tables must equal the serial one row for row; the benchmark checks it.
 
 ``run(out_dir)`` writes ``sweep_speed.csv`` there and returns the table;
 ``python bench/sweep_speed.py`` prints it. ``BENCH_SWEEP_ANGLES`` and ``BENCH_SWEEP_MASSES``
