@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -103,8 +103,7 @@ class ShotFigures:
 
     def as_dict(self) -> dict[str, float]:
         """The figures as ``{name: value}`` in the order of :data:`FIGURES`."""
-        values = asdict(self)
-        return {k: float(values[k]) for k in FIGURES}
+        return {k: float(getattr(self, k)) for k in FIGURES}
 
     @property
     def status(self) -> str:

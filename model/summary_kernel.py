@@ -48,9 +48,9 @@ _HELD_ONLY = 5  # -sling_tension: phases 1 and 2 only
 _CLEARANCE = 6  # -y_M: up to t_clear only
 _NO_REFINE = 7  # the energy sum: a diagnostic, its largest sample
 
-SAMPLES_PER_STEP = 3
-GOLDEN_STEPS = 8
-PARABOLA_STEPS = 2
+SAMPLES_PER_STEP = 2
+GOLDEN_STEPS = 6
+PARABOLA_STEPS = 3
 CANDIDATE_SHARE = 0.02
 
 _I_FS, _I_FH, _I_FR = (fo.ROW_COLUMNS.index(c) for c in ("F_S_abs", "F_H_abs", "F_R_abs"))
