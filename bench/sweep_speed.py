@@ -1,5 +1,4 @@
-"""Speed of :func:`trebuchet.model.sweep.sweep`: 1000 designs of the paper's engine against one
-simulate() call.
+"""Speed of sweep(): 1000 designs of the paper's engine against one simulate() call.
 
 The grid: 20 release velocity angles (25°–70°) × 50 counterweight masses (8–40 t), every
 design at simulate's default accuracy (DOP853, rtol 1e-10) with every figure of the sweep
