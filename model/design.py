@@ -40,6 +40,7 @@ from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.shot_summary import FIGURES, shot_figures
 from trebuchet.model.simulate import simulate
 from trebuchet.model.sweep import (
+    MAX_DESIGNS,
     Budget,
     DesignRunner,
     SimulationOptions,
@@ -161,6 +162,11 @@ def design(scene: Scene | str, vary: Mapping[str, Any], maximize: str | None = N
     budget.check()
     opts = search_options or SearchOptions()
     opts = replace(opts, seed=seed if seed is not None else opts.seed)
+    budget_designs = opts.popsize * len(problem.variables) * (opts.generations + 1)
+    if not (opts.popsize >= 1 and opts.generations >= 1 and budget_designs <= MAX_DESIGNS):
+        raise TrebuchetInputError(f"design: --popsize {opts.popsize} x {len(problem.variables)}"
+                                  f" keys x --generations {opts.generations}: at most "
+                                  f"{MAX_DESIGNS:,} designs, each at least 1")
     start = evaluate_design(base, (-1, {}), options=options)
     start_figures = {k: start[k] for k in FIGURES}
     scale = abs(start_figures[problem.objective])

@@ -43,6 +43,7 @@ from trebuchet.model.scene import Scene
 from trebuchet.model.sweep_dask import LOST_AFTER, run_dask
 from trebuchet.model.sweep_design import (
     LOST,
+    MAX_DESIGNS,
     STATUS_FAILED,
     SUMMARY_COLUMNS,
     Budget,
@@ -64,7 +65,7 @@ from trebuchet.model.sweep_pool import WorkerPool
 __all__ = [
     "SUMMARY_COLUMNS", "SimulationOptions", "Budget", "output_step", "accuracy_option",
     "parse_grid_values", "parse_grid_option", "check_grid", "grid_designs", "design_scene",
-    "summarize", "evaluate_design", "DesignRunner", "sweep", "default_workers",
+    "summarize", "evaluate_design", "DesignRunner", "sweep", "default_workers", "MAX_DESIGNS",
 ]
 
 

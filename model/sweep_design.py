@@ -75,6 +75,7 @@ STATUSES = (STATUS_OK, STATUS_BACKWARD, STATUS_GROUND, STATUS_REFUSED, STATUS_FA
 LOST = "its worker process died"
 MAX_DT = 0.1  # s: a coarser output step misses the shot's events and peaks
 MAX_AFTER_RELEASE = 60.0  # s of phase III at most (the simulator's longest shot)
+MAX_DESIGNS = 1_000_000  # designs of one sweep at most
 _RELEASE_KEYS = ("release.time", "release.velocity_angle_deg", "release.velocity_angle")
 _ANGLE_PAIRS = {"theta": "theta_deg", "psi": "psi_deg", "phi": "phi_deg",
                 "velocity_angle": "velocity_angle_deg"}
@@ -208,8 +209,9 @@ def parse_grid_values(text: str, where: str = "--grid") -> tuple[float, ...]:
         except ValueError:
             raise TrebuchetInputError(f"{where}: {text!r}: count {parts[2]!r} must be a whole "
                                       "number") from None
-        if count < 1:
-            raise TrebuchetInputError(f"{where}: {text!r}: count must be at least 1")
+        if not 1 <= count <= MAX_DESIGNS:
+            raise TrebuchetInputError(f"{where}: {text!r}: count must lie between 1 and "
+                                      f"{MAX_DESIGNS:,}")
         if count == 1:
             return (start,)
         return tuple(float(v) for v in np.linspace(start, stop, count))
@@ -276,8 +278,14 @@ def check_grid(grid: Mapping[str, Iterable[float | str]]) -> dict[str, tuple[flo
 
 
 def grid_designs(grid: Mapping[str, Sequence[float]]) -> list[dict[str, float]]:
-    """The cartesian product of the grid's values, the first key varying slowest."""
+    """The cartesian product of the grid's values, the first key varying slowest; at most
+    :data:`MAX_DESIGNS` designs (a larger grid is refused: split it into sweeps)."""
     keys = list(grid)
+    n = math.prod(len(grid[k]) for k in keys)
+    if n > MAX_DESIGNS:
+        raise TrebuchetInputError(f"grid: {n:,} designs, more than a sweep takes "
+                                  f"({MAX_DESIGNS:,}: their rows alone would need gigabytes); "
+                                  "split it into several sweeps")
     return [dict(zip(keys, combo, strict=True))
             for combo in itertools.product(*(grid[k] for k in keys))]
 
