@@ -34,9 +34,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _build(args: argparse.Namespace) -> int:
-    from trebuchet.fmu.build import build_fmu
+    from trebuchet.fmu.build import build_fmu, fmi_headers
+    from trebuchet.fmu.csources import GLUE_DIR, GLUE_FILES
 
-    check_target(args.output)
+    check_target(args.output,  # not over a file the build reads
+                 inputs=[*fmi_headers(args.fmi), *(GLUE_DIR / name for name in GLUE_FILES)])
     path = build_fmu(args.output, fmi=args.fmi)
     print(f"FMI {args.fmi}.0 FMU (co-simulation and model exchange) -> {path}")
     return 0
@@ -45,7 +47,7 @@ def _build(args: argparse.Namespace) -> int:
 def _crosscheck(args: argparse.Namespace) -> int:
     from trebuchet.fmu.crosscheck import write_crosscheck
 
-    check_target(args.output, folder=True)
+    check_target(args.output, folder=True, inputs=[args.fmu])
     folder = write_crosscheck(args.fmu, args.output)
     print(f"cross-check files -> {folder}")
     return 0

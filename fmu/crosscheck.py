@@ -81,7 +81,7 @@ def write_crosscheck(fmu: str | Path, out_dir: str | Path) -> Path:
     ref = reference(times, command_time=COMMAND_TIME, t_stop=STOP_TIME)
     rel = Path("fmus", "2.0", "cs", fmpy.platform, "trebuchet", __version__, MODEL_NAME)
     out_dir = Path(out_dir)
-    with atomic_dir(out_dir) as tmp:
+    with atomic_dir(out_dir, inputs=[fmu]) as tmp:
         folder = tmp / rel
         folder.mkdir(parents=True)
         shutil.copyfile(fmu, folder / f"{MODEL_NAME}.fmu")

@@ -220,12 +220,13 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
 
 @cli_command
 def _forces(args: argparse.Namespace) -> int:
-    check_target(args.output)
+    inputs = [args.log, args.scene, args.calibration]
+    check_target(args.output, inputs=inputs)
     options = reconstruct_options(args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = reconstruct(args.log, args.scene, **options)
-    write_csv(result, args.output)
+    write_csv(result, args.output, inputs=inputs)
     summary = forces_summary(result, args.output)
     print(summary)
     for w in caught:  # what the summary does not already say

@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from trebuchet.errors import cli_command
+from trebuchet.model.output_size import MAX_AFTER_RELEASE
 from trebuchet.model.paper import horsdal_scene_path, paper_comparison
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
@@ -19,12 +20,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--dt", type=output_step, default=1e-3,
-                   help="output step in s, up to 0.1 (default 0.001)")
+                   help="output step in s, 1e-6 to 0.1, at most 1,000,000 rows "
+                   "(default 0.001)")
     p.add_argument("--accuracy", "--rtol", dest="accuracy", default="default", type=accuracy_option,
                    help="fast, default, precise, or a relative tolerance such as 1e-8 "
                    f"(default: {DEFAULT_RTOL:g})")
     p.add_argument("--after-release", type=float, default=DEFAULT_AFTER_RELEASE,
-                   help=f"s of phase III to simulate (default {DEFAULT_AFTER_RELEASE:g})")
+                   help=f"s of phase III to simulate, 0 to {MAX_AFTER_RELEASE:g} "
+                   f"(default {DEFAULT_AFTER_RELEASE:g})")
     p.set_defaults(run=_simulate)
 
     p = sub.add_parser("paper", help="compare the model with every number the paper quotes",
@@ -37,10 +40,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _simulate(args: argparse.Namespace) -> int:
-    check_target(args.output)
+    check_target(args.output, inputs=[args.scene])
     scene = Scene.from_toml(args.scene)
     run = simulate(scene, rtol=args.accuracy, after_release=args.after_release, dt=args.dt)
-    write_csv(run, args.output)
+    write_csv(run, args.output, inputs=[args.scene])
     print(simulation_summary(run) + f"; {len(run)} rows -> {args.output}")
     return 0
 
@@ -75,7 +78,7 @@ def format_paper_table(table, markdown: bool = False) -> str:
 @cli_command
 def _paper(args: argparse.Namespace) -> int:
     if args.output:
-        check_target(args.output)
+        check_target(args.output, inputs=[args.scene])
     scene = Scene.from_toml(args.scene) if args.scene else None
     table = paper_comparison(scene)
     if scene is not None and scene.engine != Scene.from_toml(horsdal_scene_path()).engine:
@@ -83,5 +86,5 @@ def _paper(args: argparse.Namespace) -> int:
               "numbers are set beside the paper's all the same", file=sys.stderr)
     print(format_paper_table(table, markdown=args.markdown))
     if args.output:
-        write_csv(table, args.output)
+        write_csv(table, args.output, inputs=[args.scene])
     return 0

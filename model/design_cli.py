@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 from trebuchet.errors import TrebuchetInputError, cli_command
 from trebuchet.model.design import design
@@ -92,13 +91,11 @@ def _design(args: argparse.Namespace) -> int:
         vary[key] = bounds
     if args.workers is not None and args.workers < 1:
         raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
-    out = check_target(args.output)
-    plot = check_target(args.plot) if args.plot else None
-    for target in (out, plot):
-        if target is not None and target.resolve() == Path(args.scene).resolve():
-            raise TrebuchetInputError(f"{target}: is the scene file; give another output")
-    if plot is not None and plot.resolve() == out.resolve():
-        raise TrebuchetInputError(f"--plot {plot}: is the -o output too; give another name")
+    out = check_target(args.output, inputs=[args.scene])
+    plot = check_target(args.plot, inputs=[args.scene]) if args.plot else None
+    if plot is not None and plot == out:
+        raise TrebuchetInputError(f"--plot {args.plot}: is the -o output too; give another "
+                                  "name")
     base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
     result = design(base, vary, maximize=args.maximize, minimize=args.minimize,
@@ -108,9 +105,9 @@ def _design(args: argparse.Namespace) -> int:
                     search_options=SearchOptions(popsize=args.popsize,
                                                  generations=args.generations))
     seconds = time.perf_counter() - t0
-    write_best(result, out, args.scene)
+    write_best(result, args.output, args.scene, inputs=[args.scene])
     if plot is not None:
-        plot_trade(result, plot)
+        plot_trade(result, args.plot, inputs=[args.scene, args.output])
     print(summary_table(result))
     print(f"{result.evaluations} designs in {seconds:.1f} s; best -> {out}"
           + (f", trade -> {plot}" if plot else ""))

@@ -91,10 +91,11 @@ def comment_block(result: DesignResult, source: str) -> list[str]:
     return lines
 
 
-def write_best(result: DesignResult, target: str | Path, source: str) -> None:
-    """BEST.toml, whole or not at all."""
+def write_best(result: DesignResult, target: str | Path, source: str, *,
+               inputs: Sequence[str | Path] = ()) -> None:
+    """BEST.toml, whole or not at all (never over one of the command's ``inputs``)."""
     text = scene_toml(result.scene, comment_block(result, source))
-    with atomic_path(target) as tmp:
+    with atomic_path(target, inputs=inputs) as tmp:
         tmp.write_text(text, encoding="utf-8")
 
 
@@ -144,7 +145,8 @@ def _zoom(ax: Any, x: np.ndarray, y: np.ndarray, xs: Sequence[float],
         setter(lo - pad, hi + pad)
 
 
-def plot_trade(result: DesignResult, target: str | Path) -> None:
+def plot_trade(result: DesignResult, target: str | Path, *,
+               inputs: Sequence[str | Path] = ()) -> None:
     """The objective against the binding limit's figure over every design the search ran
     that meets the other limits, its Pareto front, the limit, the start and the best."""
     from matplotlib.figure import Figure
@@ -179,6 +181,6 @@ def plot_trade(result: DesignResult, target: str | Path) -> None:
     ax.set_ylabel(f"{obj} ({figure_unit(obj)})")
     ax.set_title(f"{result.sense} {obj}: the trade against the binding limit", fontsize=10)
     ax.legend(fontsize=8, loc="best")
-    with atomic_path(target) as tmp:
+    with atomic_path(target, inputs=inputs) as tmp:
         fig.savefig(tmp, dpi=120, format="png")
 

@@ -27,6 +27,7 @@ from trebuchet.model import phase_events as pev
 from trebuchet.model.flight import flight_summary
 from trebuchet.model.frames import frame
 from trebuchet.model.loads import load_columns
+from trebuchet.model.output_size import MAX_ROWS, check_output_size
 from trebuchet.model.scene import Scene
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
@@ -209,8 +210,7 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     rtol = resolve_rtol(rtol)
     if after_release is None:
         after_release = DEFAULT_DRY_FIRE if scene.projectile == "none" else DEFAULT_AFTER_RELEASE
-    if not after_release >= 0.0:
-        raise TrebuchetInputError(f"after_release = {after_release:g} s: must not be negative")
+    check_output_size(after_release=after_release)
     e, g, H, s = scene.engine, scene.g, scene.start.H, scene.start
     phases: list[PhaseSolution] = []
     events: dict[str, float] = {}
@@ -389,10 +389,11 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     """
     rtol = resolve_rtol(rtol)
     times = None if t_eval is None else _checked_times(t_eval)
-    if times is None and not (math.isfinite(dt) and dt > 0.0):
-        raise TrebuchetInputError(f"dt = {dt:g} s: the output step must be a positive number "
-                                  "of seconds")
+    if times is None:
+        check_output_size(dt, after_release)
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
+    if times is None:
+        check_output_size(dt, span=traj.t_end)
     times = default_times(traj, dt) if times is None else times
     cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
     _refuse_non_finite(cols, scene)
@@ -427,6 +428,9 @@ def _checked_times(t_eval: Sequence[float] | np.ndarray) -> np.ndarray:
     if bad.size:
         raise TrebuchetInputError(f"t_eval[{bad[0]}] = {t[bad[0]]}: times must be finite "
                                   f"({bad.size} are not)")
+    if t.size > MAX_ROWS:
+        raise TrebuchetInputError(f"t_eval holds {t.size:,} times: at most {MAX_ROWS:,} output "
+                                  "rows in one run")
     return t
 
 

@@ -79,9 +79,7 @@ def _sweep(args: argparse.Namespace) -> int:
         raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
     options = SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release)
     options.check()
-    out = check_target(args.output)
-    if out.resolve() == Path(args.scene).resolve():
-        raise TrebuchetInputError(f"-o {args.output}: is the scene file; give another output")
+    out = check_target(args.output, inputs=[args.scene])
     journal = journal_path(out)
     base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
@@ -95,7 +93,7 @@ def _sweep(args: argparse.Namespace) -> int:
               "same command with --resume to continue", flush=True)
         return 130
     seconds = time.perf_counter() - t0
-    write_csv(table, out)
+    write_csv(table, args.output, inputs=[args.scene])
     journal.unlink(missing_ok=True)
     counts = Counter(table["status"])
     ok = counts.pop("ok", 0)

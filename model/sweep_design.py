@@ -44,6 +44,7 @@ import pandas as pd
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model import kinematics as kin
 from trebuchet.model.dynamics import trough_sling_angle
+from trebuchet.model.output_size import check_output_size
 from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
 from trebuchet.model.shot_summary import (
     CLEARANCE_WINDOW,
@@ -74,7 +75,6 @@ STATUSES = (STATUS_OK, STATUS_BACKWARD, STATUS_GROUND, STATUS_REFUSED, STATUS_FA
 #: sweep runs such designs again).
 LOST = "its worker process died"
 MAX_DT = 0.1  # s: a coarser output step misses the shot's events and peaks
-MAX_AFTER_RELEASE = 60.0  # s of phase III at most (the simulator's longest shot)
 MAX_DESIGNS = 1_000_000  # designs of one sweep at most
 _RELEASE_KEYS = ("release.time", "release.velocity_angle_deg", "release.velocity_angle")
 _ANGLE_PAIRS = {"theta": "theta_deg", "psi": "psi_deg", "phi": "phi_deg",
@@ -98,9 +98,7 @@ class SimulationOptions:
         resolve_rtol(self.rtol)
         if self.dt is not None and not 0.0 < self.dt <= MAX_DT:
             raise TrebuchetInputError(f"dt = {self.dt:g} s: must lie in (0, {MAX_DT:g}] s")
-        if self.after_release is not None and not 0.0 <= self.after_release <= MAX_AFTER_RELEASE:
-            raise TrebuchetInputError(f"after_release = {self.after_release:g} s: must lie in "
-                                      f"[0, {MAX_AFTER_RELEASE:g}] s")
+        check_output_size(self.dt, self.after_release)  # no design could run beyond these
 
 
 @dataclass(frozen=True)

@@ -103,7 +103,9 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
                        details={"All metrics (units of the figures; SI in metrics.csv)":
                                 details_table(table, scene),
                                 "Events (ms after the log's trigger)": events_table(events)},
-                       files={"metrics.csv": table, "events.csv": events})
+                       files={"metrics.csv": table, "events.csv": events},
+                       inputs=[None if isinstance(log, pd.DataFrame) else log, scene.source,
+                               reconstruct_options.get("calibration")])
     return out, table
 
 
@@ -162,7 +164,7 @@ def _compare(args: argparse.Namespace) -> int:
     start = time.monotonic()
     # what can be checked before the progress lines start: the report folder, the log, the scene
     rule = _release_rule(args)
-    check_target(args.output, folder=True)
+    check_target(args.output, folder=True, inputs=[args.log, args.scene, args.calibration])
     if not Path(args.log).is_file():
         raise TrebuchetInputError(f"{args.log}: no such file")
     if not 0 <= args.chance_runs <= 1000:

@@ -73,7 +73,8 @@ def report_scene(scene: Scene, out_dir: str | Path, *, dt: float = 1e-3,
              "counterweight's weight M g.")
     return write_report(out_dir, figures, tables, advisories,
                         title=f"trebuchet report: {Path(scene.source).name}",
-                        captions=CAPTIONS, intro=intro, csv_tables=["peaks"], progress=say)
+                        captions=CAPTIONS, intro=intro, csv_tables=["peaks"], progress=say,
+                        inputs=[scene.source])
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -85,7 +86,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "all.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("-o", "--output", required=True, help="report directory to write")
-    p.add_argument("--dt", type=float, default=1e-3, help="output step in s (default 0.001)")
+    p.add_argument("--dt", type=float, default=1e-3,
+                   help="output step in s, 1e-6 to 0.1 (default 0.001)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(run=_report)
 
@@ -93,7 +95,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 @cli_command
 def _report(args: argparse.Namespace) -> int:
     start = time.monotonic()
-    check_target(args.output, folder=True)
+    check_target(args.output, folder=True, inputs=[args.scene])
     scene = Scene.from_toml(args.scene)
     out = report_scene(scene, args.output, dt=args.dt,
                        progress=None if args.quiet else _stderr)
