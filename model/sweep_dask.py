@@ -43,16 +43,16 @@ def run_dask(client: Any, chunks: Sequence[list], evaluate_chunk: Callable[..., 
     futures = client.map(evaluate_chunk, chunks, pure=False, **kwargs)
     chunk_of = {f.key: list(c) for f, c in zip(futures, chunks, strict=True)}
     pending = {f.key: f for f in futures}
-    done = as_completed(futures)
+    done = as_completed(futures, with_results=True, raise_errors=False)  # fetched at once
     started: dict[str, float] = {}
     no_worker_since: float | None = None
     next_watch = time.monotonic() + _WATCH
     try:
         while pending:
             if done.has_ready():
-                for future in done.next_batch(block=False):
+                for future, result in done.next_batch(block=False):
                     if pending.pop(future.key, None) is not None:
-                        yield _rows_of(future, chunk_of[future.key], lost_row)
+                        yield _rows_of(future, result, chunk_of[future.key], lost_row)
                 continue
             time.sleep(_POLL)
             if time.monotonic() < next_watch:
@@ -85,20 +85,17 @@ def run_dask(client: Any, chunks: Sequence[list], evaluate_chunk: Callable[..., 
             future.cancel()
 
 
-def _rows_of(future: Any, chunk: list, lost_row: Callable[[Any, str, str], dict]
-             ) -> list[dict]:
-    """The rows of a finished future, or a ``failed`` row per design where it did not run."""
-    if future.status == "finished":
-        try:
-            return future.result()
-        except Exception as exc:  # noqa: BLE001 - the result was lost on the way
-            reason = f"its result was lost: {type(exc).__name__}: {exc}"
+def _rows_of(future: Any, result: Any, chunk: list,
+             lost_row: Callable[[Any, str, str], dict]) -> list[dict]:
+    """The rows of a finished future, or a ``failed`` row per design where it gave none."""
+    if future.status == "finished" and isinstance(result, list):
+        return result
+    if type(result).__name__ == "KilledWorker":
+        reason = f"{LOST} (Dask: KilledWorker) while running this design's chunk"
+    elif isinstance(result, BaseException):
+        reason = f"Dask: {type(result).__name__}: {result}"
     else:
-        exc = future.exception() if future.status == "error" else None
-        if type(exc).__name__ == "KilledWorker":
-            reason = f"{LOST} (Dask: KilledWorker) while running this design's chunk"
-        else:
-            reason = f"Dask: {type(exc).__name__ if exc else future.status}: {exc or ''}"
+        reason = f"{LOST} (Dask: its chunk's result was {future.status})"
     return [lost_row(item, STATUS_FAILED, reason) for item in chunk]
 
 

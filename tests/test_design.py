@@ -253,3 +253,13 @@ def test_cli_objective_required(scene_file, tmp_path, capsys):
         cli.main(["design", str(scene_file), "-o", str(tmp_path / "b.toml"), "--vary",
                   "engine.L4=1:2"])
     assert exc.value.code == 2 and "--maximize" in capsys.readouterr().err
+
+
+def test_design_on_dask_equals_local(base, limit, result):
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        on_dask = design(base, VARY, maximize="range", limits=[limit], seed=3,
+                         executor=client, search_options=SMALL)
+    assert on_dask.params == result.params and on_dask.value == result.value

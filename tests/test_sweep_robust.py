@@ -245,3 +245,38 @@ def test_dask_without_workers_ends(horsdal):
     assert (table["status"] == "failed").all() and len(table) == 8
     assert table["error"].str.startswith("no Dask worker left").all()
     assert math.isnan(table["range"].iloc[0])
+
+
+def test_dask_workers_gone_mid_sweep_keeps_what_finished(horsdal, monkeypatch):
+    """Every worker of the cluster closed while the sweep runs: the rows finished before are
+    kept, the others come back failed after ``lost_after`` s, and the sweep ends."""
+    import threading
+
+    distributed = pytest.importorskip("dask.distributed")
+    started = threading.Event()
+    real = sweep_module.evaluate_design
+
+    def slow(base, item, **kwargs):
+        if item[0] >= 2:
+            started.set()
+            time.sleep(0.5)
+        return real(base, item, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "evaluate_design", slow)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        out: dict = {}
+        run = threading.Thread(target=lambda: out.update(table=sweep(
+            horsdal, GRID, executor=client, progress=False, options=FAST, lost_after=1.0)))
+        run.start()
+        assert started.wait(30)
+        time.sleep(0.3)  # the first chunk's rows reach the client
+        cluster.scale(0)
+        run.join(60)
+        assert not run.is_alive(), "the sweep hangs"
+    table = out["table"]
+    assert len(table) == 8 and (table["status"].iloc[:2] == "ok").all()
+    gone = table.iloc[2:]
+    assert (gone["status"] == "failed").all()
+    assert gone["error"].str.startswith(("no Dask worker left", "its worker process died")).all()
