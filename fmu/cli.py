@@ -1,10 +1,11 @@
-"""Sub-commands of the FMU: ``trebuchet fmu build`` and ``trebuchet fmu crosscheck``."""
+"""Sub-commands of the FMU: ``trebuchet fmu build`` and ``trebuchet fmu crosscheck``.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): sympy, the code generator and
+fmpy load when a command runs."""
 
 from __future__ import annotations
 
 import argparse
-
-from trebuchet.output import check_target
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -36,6 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _build(args: argparse.Namespace) -> int:
     from trebuchet.fmu.build import build_fmu, fmi_headers
     from trebuchet.fmu.csources import GLUE_DIR, GLUE_FILES
+    from trebuchet.output import check_target
 
     check_target(args.output,  # not over a file the build reads
                  inputs=[*fmi_headers(args.fmi), *(GLUE_DIR / name for name in GLUE_FILES)])
@@ -46,6 +48,7 @@ def _build(args: argparse.Namespace) -> int:
 
 def _crosscheck(args: argparse.Namespace) -> int:
     from trebuchet.fmu.crosscheck import write_crosscheck
+    from trebuchet.output import check_target
 
     check_target(args.output, folder=True, inputs=[args.fmu])
     folder = write_crosscheck(args.fmu, args.output)

@@ -9,6 +9,9 @@ Prints a table of the start against the best; BEST.toml is a valid scene whose c
 gives the objective and each limit with its margin. A mistake (an unknown key or figure,
 bounds the wrong way round, a limit that does not parse, limits no design meets): exit 2, one
 line, nothing written.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the search loads when the
+command runs.
 """
 
 from __future__ import annotations
@@ -17,15 +20,13 @@ import argparse
 import time
 
 from trebuchet.errors import TrebuchetInputError, cli_command
-from trebuchet.model.design import design
-from trebuchet.model.design_output import plot_trade, summary_table, write_best
-from trebuchet.model.design_problem import parse_vary
-from trebuchet.model.design_search import SearchOptions
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import ACCURACY
-from trebuchet.model.sweep import SimulationOptions, accuracy_option
-from trebuchet.model.sweep_design import add_budget_options, budget_of
-from trebuchet.output import check_target
+from trebuchet.model.settings import (
+    ACCURACY,
+    DESIGN_GENERATIONS,
+    DESIGN_POPSIZE,
+    accuracy_option,
+    add_budget_options,
+)
 
 __all__ = ["register"]
 
@@ -41,7 +42,6 @@ def _count(text: str) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    defaults = SearchOptions()
     p = sub.add_parser(
         "design", help="the best design under limits on its loads (an optimiser, not a grid)",
         description="Vary scene keys between bounds to maximise or minimise one figure of the "
@@ -72,10 +72,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--accuracy", "--rtol", dest="rtol", type=accuracy_option, default="default",
                    help="solver tolerance of the search: fast, default, precise or a number "
                         f"(default {ACCURACY['default']:g}); the best is verified at default")
-    p.add_argument("--generations", type=_count, default=defaults.generations,
-                   help=f"generations of evolution at most (default {defaults.generations})")
-    p.add_argument("--popsize", type=_count, default=defaults.popsize,
-                   help=f"designs per varied key in a generation (default {defaults.popsize})")
+    p.add_argument("--generations", type=_count, default=DESIGN_GENERATIONS,
+                   help=f"generations of evolution at most (default {DESIGN_GENERATIONS})")
+    p.add_argument("--popsize", type=_count, default=DESIGN_POPSIZE,
+                   help=f"designs per varied key in a generation (default {DESIGN_POPSIZE})")
     add_budget_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=_design)
@@ -83,6 +83,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _design(args: argparse.Namespace) -> int:
+    from trebuchet.model.design import design
+    from trebuchet.model.design_output import plot_trade, summary_table, write_best
+    from trebuchet.model.design_problem import parse_vary
+    from trebuchet.model.design_search import SearchOptions
+    from trebuchet.model.scene import Scene
+    from trebuchet.model.sweep import Budget, SimulationOptions
+    from trebuchet.output import check_target
+
     vary: dict[str, tuple[float, float]] = {}
     for text in args.vary:
         key, bounds = parse_vary(text)
@@ -101,7 +109,8 @@ def _design(args: argparse.Namespace) -> int:
     result = design(base, vary, maximize=args.maximize, minimize=args.minimize,
                     limits=args.limit, seed=args.seed, workers=args.workers,
                     executor=args.scheduler, progress=not args.quiet,
-                    options=SimulationOptions(rtol=args.rtol), budget=budget_of(args),
+                    options=SimulationOptions(rtol=args.rtol),
+                    budget=Budget(seconds=args.time_budget, memory=args.memory_budget),
                     search_options=SearchOptions(popsize=args.popsize,
                                                  generations=args.generations))
     seconds = time.perf_counter() - t0

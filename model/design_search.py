@@ -33,6 +33,7 @@ import numpy as np
 from scipy.optimize import NonlinearConstraint, differential_evolution, minimize
 
 from trebuchet.model.design_problem import Problem
+from trebuchet.model.settings import DESIGN_GENERATIONS, DESIGN_POPSIZE
 
 __all__ = ["SearchOptions", "Evaluator", "search", "STATUS_MARGIN"]
 
@@ -51,8 +52,8 @@ class SearchOptions:
     repeatable; ``safety``: the relative margin the polish keeps inside each limit (the
     solver's own accuracy is ~1e-9, so that an independent simulation meets the limits too)."""
 
-    popsize: int = 8
-    generations: int = 20
+    popsize: int = DESIGN_POPSIZE
+    generations: int = DESIGN_GENERATIONS
     tol: float = 0.0
     polish: bool = True
     polish_steps: int = 60

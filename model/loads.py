@@ -7,6 +7,7 @@ simulator's pandas-free path. The simulator, the ingest path and the FMU all cal
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -17,13 +18,14 @@ from trebuchet.model.flight import projectile_in_flight
 from trebuchet.model.forces import ANGLE_COLUMNS, ROW_COLUMNS, projectile_energy, rest_energies
 from trebuchet.model.frames import frame
 from trebuchet.model.loads_kernel import load_block
-from trebuchet.model.scene import Scene
+from trebuchet.model.scene import Scene, as_scene
 
 __all__ = ["loads", "load_columns"]
 
 
 
-def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projected"] = "direct",
+def loads(angles: pd.DataFrame, scene: Scene | str | Path, *,
+          form: Literal["direct", "projected"] = "direct",
           release_state: dict[str, float] | None = None) -> pd.DataFrame:
     """Every force, torque, power and energy of the contract from angles and their derivatives.
 
@@ -33,7 +35,7 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
         Columns ``t`` (s), ``phase`` (1 trough, 2 sling, 3 released), ``theta psi phi`` (rad),
         ``*_d`` (rad/s) and ``*_dd`` (rad/s²). ``phi`` and its derivatives are ignored in
         phase 3.
-    scene : Scene
+    scene : Scene, or the path of a scene file (TOML)
         The engine, gravity, and the rest pose that energies are counted from.
     form : "direct" or "projected"
         ``direct``: the paper's eqs. (11) and (13). ``projected``: F_H on the counterweight arm
@@ -52,6 +54,7 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
     """
     if form not in ("direct", "projected"):
         raise ValueError(f"form must be 'direct' or 'projected', got {form!r}")
+    scene = as_scene(scene, "forces")
     _check_angles(angles)
     given = _columns_of(angles)
     return frame(load_columns(given, scene, form=form, release_state=release_state),

@@ -32,11 +32,11 @@ from pathlib import Path
 import numba
 import numpy as np
 from numba.extending import register_jitable
-from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
+from trebuchet.model.dop853_tableau import DOP853 as _dop
 from trebuchet.model.integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
 from trebuchet.model.scene import Engine
 

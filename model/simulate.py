@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from types import ModuleType
 from typing import Any
 
@@ -28,13 +29,11 @@ from trebuchet.model.flight import flight_summary
 from trebuchet.model.frames import frame
 from trebuchet.model.loads import load_columns
 from trebuchet.model.output_size import MAX_ROWS, check_output_size
-from trebuchet.model.scene import Scene
+from trebuchet.model.scene import Scene, as_scene
+from trebuchet.model.settings import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
-DEFAULT_RTOL = 1e-10
-ACCURACY = {"fast": 1e-6, "default": DEFAULT_RTOL, "precise": 1e-12}  # named tolerances
-DEFAULT_AFTER_RELEASE = 0.5  # s of phase III simulated by default
 DEFAULT_DRY_FIRE = 1.5  # s simulated by default for a dry fire (phase III from the start)
 MAX_SHOT = 60.0  # s: a shot still in the trough or sling by then is refused
 #: Angles, rates and accelerations, in the row order of :meth:`Trajectory.angle_columns`.
@@ -352,14 +351,15 @@ def engine_energy(run: Mapping[str, Any], traj: Trajectory) -> np.ndarray:
     return E_m + np.asarray(run["E_M"]) + np.asarray(run["E_beam"])
 
 
-def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *,
+def simulate(scene: Scene | str | Path,
+             t_eval: Sequence[float] | np.ndarray | None = None, *,
              rtol: float | str = "default", method: str = "DOP853",
              after_release: float | None = None, dt: float = 1e-3) -> pd.DataFrame:
     """Simulate a shot and compute every force, torque, power and energy of the paper.
 
     Parameters
     ----------
-    scene : Scene
+    scene : Scene, or the path of a scene file (TOML)
         Engine, start pose, release rule, gravity.
     t_eval : array of s, optional
         Output times after the trigger. Default: every ``dt`` s, plus lift-off, release and the
@@ -387,6 +387,7 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     ``attrs["flight"]`` the flight (vacuum or drag, None for a dry fire);
     ``attrs["diagnostics"]`` the solver, tolerance, number of evaluations and energy drift.
     """
+    scene = as_scene(scene, "simulate")
     rtol = resolve_rtol(rtol)
     times = None if t_eval is None else _checked_times(t_eval)
     if times is None:

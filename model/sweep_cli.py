@@ -7,6 +7,9 @@
 values as a comma list (``10000,19100,30000``) or ``start:stop:count`` (``count`` evenly spaced
 values, both ends included). The table is written whole at the end; meanwhile each finished
 row goes to ``OUTPUT.partial``, which a killed run leaves behind and ``--resume`` continues.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the sweep loads when the
+command runs.
 """
 
 from __future__ import annotations
@@ -14,23 +17,13 @@ from __future__ import annotations
 import argparse
 import time
 from collections import Counter
-from pathlib import Path
 
 from trebuchet.errors import TrebuchetInputError, cli_command
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import ACCURACY
-from trebuchet.model.sweep import (
-    SimulationOptions,
-    accuracy_option,
-    output_step,
-    parse_grid_option,
-    sweep,
-)
-from trebuchet.model.sweep_design import add_budget_options, budget_of
-from trebuchet.model.sweep_journal import journal_path
-from trebuchet.output import check_target, write_csv
+from trebuchet.model.settings import ACCURACY, accuracy_option, add_budget_options, output_step
+from trebuchet.model.units import UNITS_HELP
 
-__all__ = ["register"]
+__all__ = ["register", "sweep_units"]
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -42,6 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "Finished rows go to OUTPUT.partial as they come; --resume continues a "
                     "killed run from it.")
     p.add_argument("scene", help="base scene file (TOML)")
+    p.add_argument("--units", action="store_true", help=UNITS_HELP)
     p.add_argument("--grid", action="append", required=True, metavar="KEY=VALUES",
                    help="scene key section.key and its values: a,b,c or start:stop:count "
                         "(both ends included), e.g. engine.M=10000,19100 or "
@@ -69,6 +63,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _sweep(args: argparse.Namespace) -> int:
+    from trebuchet.csv_table import write_table
+    from trebuchet.model.scene import Scene
+    from trebuchet.model.sweep import Budget, SimulationOptions, parse_grid_option, sweep
+    from trebuchet.model.sweep_journal import journal_path
+    from trebuchet.output import check_target
+
     grid: dict[str, tuple[float, ...]] = {}
     for text in args.grid:
         key, values = parse_grid_option(text)
@@ -83,29 +83,34 @@ def _sweep(args: argparse.Namespace) -> int:
     journal = journal_path(out)
     base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
-    try:
-        table = sweep(base, grid, executor=args.scheduler, workers=args.workers,
-                      progress=not args.quiet, options=options, budget=budget_of(args),
-                      journal=journal, resume=args.resume)
-    except KeyboardInterrupt:
-        kept = _rows_in(journal)
-        print(f"trebuchet: interrupted: {kept} finished designs kept in {journal}; run the "
-              "same command with --resume to continue", flush=True)
-        return 130
+    # interrupted or killed, the rows finished so far stay in the journal for --resume
+    table = sweep(base, grid, executor=args.scheduler, workers=args.workers,
+                  progress=not args.quiet, options=options,
+                  budget=Budget(seconds=args.time_budget, memory=args.memory_budget),
+                  journal=journal, resume=args.resume)
     seconds = time.perf_counter() - t0
-    write_csv(table, args.output, inputs=[args.scene])
+    write_table(table, args.output, inputs=[args.scene],
+                units=sweep_units(list(table.columns)) if args.units else None)
     journal.unlink(missing_ok=True)
     counts = Counter(table["status"])
     ok = counts.pop("ok", 0)
     others = ", ".join(f"{n} {status}" for status, n in sorted(counts.items()))
     print(f"{len(table)} designs in {seconds:.1f} s: {ok} ok"
-          + (f", {others} (reason in column 'error')" if others else "") + f" -> {out}")
+          + (f", {others} (reason in column 'error')" if others else "")
+          + f" -> {args.output}")
     return 0
 
 
-def _rows_in(journal: Path) -> int:
-    try:
-        with open(journal, "rb") as f:
-            return max(0, sum(1 for _ in f) - 2)
-    except OSError:
-        return 0
+def sweep_units(columns: list[str]) -> dict[str, str]:
+    """The unit of each column of a sweep's table: the scene keys' and the model's
+    (:func:`~trebuchet.model.units.column_unit`), the summary's as
+    :data:`~trebuchet.model.sweep.SUMMARY_COLUMNS` states them ("1": none)."""
+    from trebuchet.model.sweep import SUMMARY_COLUMNS
+    from trebuchet.model.units import column_units
+
+    units = column_units(columns)
+    for name, text in SUMMARY_COLUMNS.items():
+        unit = text.split(",", 1)[0].strip()
+        if name in columns and unit != "1":
+            units[name] = {"°": "deg"}.get(unit, unit)
+    return units

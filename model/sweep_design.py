@@ -30,10 +30,8 @@ spaced values from ``start`` to ``stop``, both included: ``30:60:7`` is 30, 35, 
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -46,6 +44,13 @@ from trebuchet.model import kinematics as kin
 from trebuchet.model.dynamics import trough_sling_angle
 from trebuchet.model.output_size import check_output_size
 from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
+from trebuchet.model.settings import (
+    MAX_DT,
+    MEMORY_BUDGET,
+    TIME_BUDGET,
+    accuracy_option,
+    output_step,
+)
 from trebuchet.model.shot_summary import (
     CLEARANCE_WINDOW,
     FIGURES,
@@ -54,14 +59,14 @@ from trebuchet.model.shot_summary import (
     STATUS_OK,
     shot_figures,
 )
-from trebuchet.model.simulate import ACCURACY, resolve_rtol
+from trebuchet.model.simulate import resolve_rtol
 
 __all__ = [
     "SUMMARY_COLUMNS", "STATUSES", "STATUS_OK", "STATUS_REFUSED", "STATUS_FAILED",
     "STATUS_OVER_BUDGET", "STATUS_BACKWARD", "STATUS_GROUND", "SimulationOptions",
     "output_step", "accuracy_option", "parse_grid_values", "parse_grid_option", "check_grid",
     "grid_designs", "design_scene", "summarize", "evaluate_design", "failed_row", "Budget",
-    "LOST", "memory_size", "add_budget_options", "budget_of",
+    "LOST",
 ]
 
 #: Summary outputs of a design, with their units (the figures of
@@ -74,7 +79,6 @@ STATUSES = (STATUS_OK, STATUS_BACKWARD, STATUS_GROUND, STATUS_REFUSED, STATUS_FA
 #: The start of the error of a design whose worker process died while running it (a resumed
 #: sweep runs such designs again).
 LOST = "its worker process died"
-MAX_DT = 0.1  # s: a coarser output step misses the shot's events and peaks
 MAX_DESIGNS = 1_000_000  # designs of one sweep at most
 _RELEASE_KEYS = ("release.time", "release.velocity_angle_deg", "release.velocity_angle")
 _ANGLE_PAIRS = {"theta": "theta_deg", "psi": "psi_deg", "phi": "phi_deg",
@@ -107,8 +111,8 @@ class Budget:
     worker's resident memory (None: no limit). Enforced in worker processes (a design run in
     the calling process, ``workers=1``, has no budget)."""
 
-    seconds: float | None = 60.0
-    memory: int | None = 2 * 1024**3
+    seconds: float | None = TIME_BUDGET
+    memory: int | None = MEMORY_BUDGET
 
     def check(self) -> None:
         """Refuse a budget no design could meet."""
@@ -118,74 +122,6 @@ class Budget:
         if self.memory is not None and not self.memory >= 16 * 1024**2:
             raise TrebuchetInputError(f"memory budget {self.memory!r} bytes: must be at least "
                                       "16 MiB")
-
-
-# --------------------------------------------------------------------------- command-line values
-# (shared by ``simulate`` and ``sweep``: one spelling, one check)
-
-
-
-def output_step(text: str) -> float:
-    """``--dt``: an output step in s, in (0, 0.1] (``simulate``, ``sweep``, ``report``)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: not a number of seconds") from None
-    if not 0.0 < value <= MAX_DT:
-        raise argparse.ArgumentTypeError(f"{text}: the output step must lie in (0, {MAX_DT:g}] "
-                                         "s (a shot lasts about a second)")
-    return value
-
-
-def accuracy_option(text: str) -> float | str:
-    """``--accuracy`` (also spelt ``--rtol``): a preset or a relative tolerance in (0, 1e-2)."""
-    if text in ACCURACY:
-        return text
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: give " + ", ".join(ACCURACY)
-                                         + " or a tolerance such as 1e-8") from None
-    if not 0.0 < value < 1e-2:
-        raise argparse.ArgumentTypeError(f"{text}: a tolerance must lie between 0 and 1e-2")
-    return value
-
-
-_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
-
-
-def memory_size(text: str) -> int:
-    """``--memory-budget``: bytes from ``2G``, ``500M``, ``1.5G`` or a plain number of bytes."""
-    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([KMGT]?)i?B?\s*", text,
-                     re.IGNORECASE)
-    if not m:
-        raise argparse.ArgumentTypeError(f"{text!r}: give a size such as 2G, 500M or 1.5G")
-    return int(float(m.group(1)) * _UNITS[m.group(2).upper()])
-
-
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: not a number of seconds") from None
-    if not 0.0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"{text}: must be a positive number of seconds")
-    return value
-
-
-def add_budget_options(p: argparse.ArgumentParser) -> None:
-    """``--time-budget`` and ``--memory-budget`` (``sweep`` and ``design``)."""
-    default = Budget()
-    p.add_argument("--time-budget", type=_seconds, default=default.seconds, metavar="S",
-                   help="wall time one design may take in a worker process before it is "
-                        f"stopped and marked over_budget (default {default.seconds:g} s)")
-    p.add_argument("--memory-budget", type=memory_size, default=default.memory, metavar="SIZE",
-                   help="memory a worker may grow by running one design (default "
-                        f"{default.memory / 2**30:g}G)")
-
-
-def budget_of(args: argparse.Namespace) -> Budget:
-    return Budget(seconds=args.time_budget, memory=args.memory_budget)
 
 
 # --------------------------------------------------------------------------- grid

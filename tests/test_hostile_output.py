@@ -13,6 +13,7 @@ full disk (a 64 KiB tmpfs as root; a writer raising ENOSPC everywhere), kill -9 
 from __future__ import annotations
 
 import errno
+import io
 import json
 import os
 import shutil
@@ -328,7 +329,13 @@ def test_a_full_disk_names_the_file_and_leaves_nothing(tmp_path, capsys, monkeyp
     def full(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
+    class FullFile(io.StringIO):  # the CSV writer's file: a disk with no room
+        write = full
+
+    from trebuchet import csv_table
+
     monkeypatch.setattr(pd.DataFrame, "to_csv", full)
+    monkeypatch.setattr(csv_table, "open", lambda *a, **k: FullFile(), raising=False)
     out = tmp_path / "run.csv"
     line = _refused(capsys, ["simulate", HORSDAL, "-o", out, "--dt", "0.01"], str(out),
                     "No space left on device")
