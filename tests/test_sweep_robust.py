@@ -280,3 +280,18 @@ def test_dask_workers_gone_mid_sweep_keeps_what_finished(horsdal, monkeypatch):
     gone = table.iloc[2:]
     assert (gone["status"] == "failed").all()
     assert gone["error"].str.startswith(("no Dask worker left", "its worker process died")).all()
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="finds the workers in /proc")
+def test_cli_ctrl_c_keeps_the_journal_and_stops_the_workers(tmp_path):
+    out = tmp_path / "sweep.csv"
+    proc = _cli([*GRID_ARGS, "-o", str(out), "--workers", "2"], delay=0.01)
+    _wait_for_rows(journal_path(out), 20, proc)
+    workers = _children(proc.pid)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and stderr.strip() == "trebuchet: interrupted"
+    assert not out.exists() and journal_path(out).is_file()
+    time.sleep(0.5)
+    assert not [pid for pid in workers if Path(f"/proc/{pid}").exists()
+                and "Z" not in Path(f"/proc/{pid}/stat").read_text().split()[2]]
