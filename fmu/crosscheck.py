@@ -61,6 +61,9 @@ def reference(times: Sequence[float] | np.ndarray, values: Mapping[str, float | 
             scene = scene.with_release(time=command_time,
                                        velocity_angle=scene.release.velocity_angle)
     run = simulate(scene, t_eval=np.asarray(times, dtype=float), after_release=after)
+    for name in OUTPUT_NAMES:  # a frictionless scene's output has no friction columns: 0
+        if name not in run.columns:
+            run[name] = 0.0
     out = run.loc[:, list(OUTPUT_NAMES)].copy()
     free = out["phase"].to_numpy() == 3
     out.loc[free, ["phi", "phi_d", "phi_dd"]] = 0.0

@@ -15,8 +15,15 @@ import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.flight import projectile_in_flight
-from trebuchet.model.forces import ANGLE_COLUMNS, ROW_COLUMNS, projectile_energy, rest_energies
+from trebuchet.model.forces import (
+    ANGLE_COLUMNS,
+    FRICTION_COLUMNS,
+    ROW_COLUMNS,
+    projectile_energy,
+    rest_energies,
+)
 from trebuchet.model.frames import frame
+from trebuchet.model.friction import has_friction
 from trebuchet.model.loads_kernel import load_block
 from trebuchet.model.scene import Scene, as_scene
 
@@ -75,12 +82,26 @@ def load_columns(given: dict[str, np.ndarray], scene: Scene, *,
     _check_phase(phase, held | free)
     block = load_block(given, scene, form == "projected", rest_energies(scene))
     out = dict(zip(ROW_COLUMNS, block, strict=True))
+    if has_friction(e):
+        t = np.asarray(given["t"], dtype=float)
+        for joint in ("pivot", "hinge"):
+            out[f"E_loss_{joint}"] = cumulative_energy(t, out[f"P_loss_{joint}"])
+    else:
+        for name in FRICTION_COLUMNS:
+            del out[name]
     if e.m > 0.0 and free.any():
         r_m, v_m = _in_flight(given["t"], out, held, free, scene, release_state)
         for name, v in zip(("x_m", "y_m", "vx_m", "vy_m"), (*r_m, *v_m), strict=True):
             out[name][free] = v
         out["E_m"][free] = projectile_energy(v_m, r_m[1], e, g) - rest_energies(scene)[0]
     return {**given, **out}
+
+
+def cumulative_energy(t: np.ndarray, power: np.ndarray) -> np.ndarray:
+    """``∫ P dt`` from the first row, J, by the trapezoidal rule over the rows' times ``t`` (s)
+    (the simulator replaces it with the integrated value)."""
+    steps = 0.5 * (power[1:] + power[:-1]) * np.diff(t)
+    return np.concatenate([[0.0], np.cumsum(steps)]) if t.size else np.zeros(0)
 
 
 def _columns_of(angles: pd.DataFrame) -> dict[str, np.ndarray]:

@@ -66,6 +66,9 @@ FIGURES: dict[str, str] = {
     "energy_drift_rel": "1, max |E_m + E_M + E_beam| over ΔU (solver accuracy)",
     "cw_clearance": "m, lowest height of the counterweight's centre above the ground, "
                     f"trigger to {CLEARANCE_WINDOW:g} s past the release",
+    "E_loss_release": "J, heat made by friction in the bearings (pivot and hinge) by the "
+                      "release",
+    "loss_share": "%, the same over ΔU",
 }
 
 STATUS_OK, STATUS_BACKWARD, STATUS_GROUND = "ok", "backward", "ground"
@@ -99,6 +102,8 @@ class ShotFigures:
     energy_share: float
     energy_drift_rel: float
     cw_clearance: float
+    E_loss_release: float = 0.0
+    loss_share: float = 0.0
     times: Mapping[str, float] = field(default_factory=dict, compare=False)
 
     def as_dict(self) -> dict[str, float]:
@@ -169,6 +174,7 @@ def shot_figures(scene: Scene, *, rtol: float | str = "default",
         extrema = _extrema_on_rows(traj, t_hi, t_clear, dt or 1e-3)
     peaks = {name: sign * extrema[key][0] for name, (key, sign) in _FROM_EXTREMA.items()}
     delta_u = scene.delta_U
+    lost = math.nan if t_rel is None else _lost_by(traj, t_rel)
     nan = math.nan
     return ShotFigures(
         lift_off=traj.events.get("lift_off", nan), release_time=nan if t_rel is None else t_rel,
@@ -180,7 +186,15 @@ def shot_figures(scene: Scene, *, rtol: float | str = "default",
         **{k: v if math.isfinite(v) else nan for k, v in peaks.items()},
         energy_share=em_release / delta_u if flight else nan,
         energy_drift_rel=extrema["energy_sum_abs"][0] / delta_u,
+        E_loss_release=lost, loss_share=100.0 * lost / delta_u,
         times={name: extrema[key][1] for name, (key, _) in _FROM_EXTREMA.items()})
+
+
+def _lost_by(traj: Trajectory, t: float) -> float:
+    """Heat made by friction at pivot and hinge from the trigger to ``t`` (s), J: the
+    integrated lost energies (0 without friction)."""
+    pivot, hinge = traj.lost_energies(np.array([t]))
+    return float(pivot[0] + hinge[0])
 
 
 def _extrema_on_rows(traj: Trajectory, t_hi: float, t_clear: float,
@@ -192,6 +206,8 @@ def _extrema_on_rows(traj: Trajectory, t_hi: float, t_clear: float,
     times = default_times(traj, dt)
     times = np.unique(np.append(times[times <= t_hi], t_hi))
     cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
+    if traj.friction:  # the integrated heat, as simulate's table has it
+        cols["E_loss_pivot"], cols["E_loss_hinge"] = traj.lost_energies(times)
     e, H = scene.engine, scene.start.H
     th, ps = cols["theta"], cols["psi"]
     y_M = kin.counterweight_position_xy(np.cos(th), np.sin(th), np.cos(ps), np.sin(ps), e, H)[1]

@@ -61,8 +61,10 @@ _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 @numba.njit(cache=True)
-def _values(kind, y, e, g, H, rest, em_release, out):  # noqa: ANN001, ANN202 - numba
-    """The :data:`EXTREMA` quantities at one state ``y`` of phase ``kind`` into ``out``."""
+def _values(kind, y, n, e, g, H, rest, em_release, out):  # noqa: ANN001, ANN202 - numba
+    """The :data:`EXTREMA` quantities at one state ``y`` (its first ``n`` entries) of phase
+    ``kind`` into ``out``; the state's last two entries, where it has more than the angles
+    and rates, are the energies lost to friction in units of ``dynamics.energy_scale``."""
     th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = dyn.phase_state(kind, y, e, g, H, math)
     row = fo.row_loads(kind, th, th_d, th_dd, ps, ps_d, ps_dd, ph, ph_d, ph_dd, e, g, H, False,
                        rest)
@@ -75,7 +77,10 @@ def _values(kind, y, e, g, H, rest, em_release, out):  # noqa: ANN001, ANN202 - 
     out[6] = -kin.counterweight_position_xy(math.cos(th), math.sin(th), math.cos(ps),
                                             math.sin(ps), e, H)[1]
     e_m = row[_I_EM] if kind <= 2 else em_release
-    out[7] = abs(e_m + row[_I_EMM] + row[_I_EB])
+    lost = 0.0
+    if n > (6 if kind == 2 else 4):
+        lost = (y[n - 2] + y[n - 1]) * dyn.energy_scale(e, g)
+    out[7] = abs(e_m + row[_I_EMM] + row[_I_EB] + lost)
 
 
 @numba.njit(cache=True)
@@ -92,7 +97,7 @@ def _state(T, Hs, Y, Fs, k0, k1, n, t, y):  # noqa: ANN001, ANN202
 def _at(j, kind, T, Hs, Y, Fs, k0, k1, n, t, e, g, H, rest, em, y, v):  # noqa: ANN001, ANN202
     """Quantity ``j`` of :data:`EXTREMA` at time ``t`` of a phase."""
     _state(T, Hs, Y, Fs, k0, k1, n, t, y)
-    _values(kind, y, e, g, H, rest, em, v)
+    _values(kind, y, n, e, g, H, rest, em, v)
     return v[j]
 
 
@@ -146,8 +151,8 @@ def _locate_max(j, kind, T, Hs, Y, Fs, k0, k1, n, a, b, e, g, H, rest, em, y, v)
 
 
 @numba.njit(cache=True)
-def _add(m, t, p, kind, y, e, g, H, rest, em, ts, ph, vals):  # noqa: ANN001, ANN202
-    _values(kind, y, e, g, H, rest, em, vals[m])
+def _add(m, t, p, kind, y, n, e, g, H, rest, em, ts, ph, vals):  # noqa: ANN001, ANN202
+    _values(kind, y, n, e, g, H, rest, em, vals[m])
     ts[m], ph[m] = t, p
     return m + 1
 
@@ -181,16 +186,16 @@ def _samples(kinds, k0s, k1s, t_starts, t_ends, sizes, T, Hs, Y, Fs, t_hi, t_cle
                 while q < 3 and special[q] < t:
                     if special[q] >= t0 and (m == first or special[q] > ts[m - 1]):
                         _state(T, Hs, Y, Fs, k0s[p], k1s[p], n, special[q], y)
-                        m = _add(m, special[q], p, kind, y, e, g, H, rest, em, ts, ph, vals)
+                        m = _add(m, special[q], p, kind, y, n, e, g, H, rest, em, ts, ph, vals)
                     q += 1
                 if m > first and t <= ts[m - 1]:
                     continue
                 _interp((t - T[k]) / Hs[k], Y[k, :n], Fs[k, :, :n], y[:n])
-                m = _add(m, t, p, kind, y, e, g, H, rest, em, ts, ph, vals)
+                m = _add(m, t, p, kind, y, n, e, g, H, rest, em, ts, ph, vals)
         for r in range(q, 3):
             if t0 <= special[r] <= t_last and (m == first or special[r] > ts[m - 1]):
                 _state(T, Hs, Y, Fs, k0s[p], k1s[p], n, special[r], y)
-                m = _add(m, special[r], p, kind, y, e, g, H, rest, em, ts, ph, vals)
+                m = _add(m, special[r], p, kind, y, n, e, g, H, rest, em, ts, ph, vals)
     return ts[:m], ph[:m], vals[:m]
 
 
@@ -229,7 +234,8 @@ def _reduce(kinds, k0s, k1s, t_starts, t_ends, sizes, T, Hs, Y, Fs, t_hi, t_clea
                 out_v[j], out_t[j] = found, at
 
 
-_SOURCES = tuple(Path(m.__file__) for m in (dyn, fo, kin, shot_kernel)) + (Path(__file__),)
+_SOURCES = tuple(Path(m.__file__) for m in (*shot_kernel.FORMULA_MODULES, shot_kernel)) + (
+    Path(__file__),)
 _COMPILED = (_values, _state, _at, _vertex, _locate_max, _add, _samples, _reduce)
 _cold = discard_stale_cache(_COMPILED, _SOURCES, "trebuchet_summary_kernel")
 

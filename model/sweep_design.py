@@ -287,6 +287,9 @@ def summarize(run: pd.DataFrame, scene: Scene) -> dict[str, float]:
         return float(np.max(np.abs(rows[col].to_numpy()))) if len(rows) else math.nan
 
     early = run[run["t"] <= ev.get("release", math.inf) + CLEARANCE_WINDOW]
+    lost = 0.0
+    if "E_loss_pivot" in run and len(at_release):
+        lost = float(at_release["E_loss_pivot"].iloc[0] + at_release["E_loss_hinge"].iloc[0])
     th, ps = early["theta"].to_numpy(), early["psi"].to_numpy()
     y_M = kin.counterweight_position_xy(np.cos(th), np.sin(th), np.cos(ps), np.sin(ps),
                                         scene.engine, scene.start.H)[1]
@@ -307,6 +310,8 @@ def summarize(run: pd.DataFrame, scene: Scene) -> dict[str, float]:
         "energy_share": energy_share,
         "energy_drift_rel": float(diag["energy_drift_rel"]),
         "cw_clearance": float(y_M.min()) if y_M.size else math.nan,
+        "E_loss_release": lost,
+        "loss_share": 100.0 * lost / diag["delta_U"],
     }
 
 

@@ -5,6 +5,7 @@ that go backward or into the ground."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,9 +25,13 @@ PEAKS = {"F_S_peak": "F_S_abs", "F_H_peak": "F_H_abs", "F_R_peak": "F_R_abs",
          "F_R_perp_peak": "F_R_perp", "torque_peak": "torque"}
 
 
-@pytest.fixture(scope="module", params=["horsdal", "backyard"])
+FRICTION = Path(__file__).resolve().parents[1] / "data_samples" / "horsdal_friction.toml"
+
+
+@pytest.fixture(scope="module", params=["horsdal", "backyard", "friction"])
 def scene(request, horsdal, backyard) -> Scene:
-    base = horsdal if request.param == "horsdal" else backyard
+    base = {"horsdal": horsdal, "backyard": backyard,
+            "friction": Scene.from_toml(FRICTION)}[request.param]
     return base.with_release(velocity_angle=math.radians(40.0))
 
 
@@ -91,6 +96,20 @@ def test_rows_path_equals_the_table(scene, table):
             assert on_rows[name] == pytest.approx(expected[name], rel=1e-6)
         else:
             assert on_rows[name] == expected[name], name
+
+
+def test_heat_by_the_release(figures, table, scene):
+    """E_loss_release is the table's integrated heat at the release row; the energy sum with
+    it stays at the solver's accuracy (a frictionless engine makes none)."""
+    at = table[(table["t"] == figures.release_time) & (table["phase"] == 2)]
+    if scene.friction is None:
+        assert figures.E_loss_release == 0.0 and "E_loss_pivot" not in table
+    else:
+        expected = float(at["E_loss_pivot"].iloc[0] + at["E_loss_hinge"].iloc[0])
+        assert figures.E_loss_release == pytest.approx(expected, rel=1e-12)
+        assert figures.E_loss_release > 0.01 * scene.delta_U
+    assert figures.loss_share == pytest.approx(100 * figures.E_loss_release / scene.delta_U)
+    assert figures.energy_drift_rel < 1e-8
 
 
 def test_short_phase_three_keeps_the_clearance_window(scene):
