@@ -157,3 +157,15 @@ def test_rows_option_refused_out_of_range():
         SimulationOptions(dt=0.5).check()
     with pytest.raises(TrebuchetInputError, match="after_release"):
         SimulationOptions(after_release=1e6).check()
+
+
+def test_friction_keys_sweep(horsdal):
+    """``friction.pivot_mu=0:0.3:4`` on the paper's engine with friction: more friction, more
+    heat and less range; without a [friction] section a coefficient alone is refused with the
+    reason (it needs the shaft's radius)."""
+    base = Scene.from_toml(FRICTION)
+    table = sweep(base, {"friction.pivot_mu": [0.0, 0.1, 0.2, 0.3]}, workers=1, progress=False)
+    assert (table["status"] == "ok").all()
+    assert np.all(np.diff(table["E_loss_release"]) > 0) and np.all(np.diff(table["range"]) < 0)
+    refused = sweep(horsdal, {"friction.pivot_mu": [0.1]}, workers=1, progress=False)
+    assert refused["status"].iloc[0] == "refused" and "pivot_radius" in refused["error"].iloc[0]
