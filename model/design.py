@@ -28,6 +28,8 @@ import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -36,6 +38,7 @@ from tqdm.auto import tqdm
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.model.design_problem import Limit, make_problem
 from trebuchet.model.design_search import Evaluator, SearchOptions, search
+from trebuchet.model.design_sizing import Sizing, read_scene, sized
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.shot_summary import FIGURES, shot_figures
 from trebuchet.model.simulate import simulate
@@ -88,7 +91,8 @@ class DesignResult:
     ``limits``: every limit with its margin; ``start_params``, ``start_figures``,
     ``start_status``: the scene the search started from; ``history``: every design the search
     ran (stage ``search`` or ``polish``, generation, keys, status, figures, ``feasible``);
-    ``seed``: the search's seed."""
+    ``seed``: the search's seed; ``sizing``: the sizing rules that set the best design's
+    shaft radii (:mod:`trebuchet.model.design_sizing`)."""
 
     scene: Scene
     params: dict[str, float]
@@ -102,6 +106,7 @@ class DesignResult:
     start_status: str
     history: pd.DataFrame
     seed: int | None
+    sizing: Sizing = Sizing()
 
     @property
     def value(self) -> float:
@@ -119,18 +124,19 @@ class DesignResult:
         return min(self.limits, key=lambda c: c.relative) if self.limits else None
 
 
-def design(scene: Scene | str, vary: Mapping[str, Any], maximize: str | None = None,
+def design(scene: Scene | str | Path, vary: Mapping[str, Any], maximize: str | None = None,
            minimize: str | None = None, limits: Sequence[str | Limit] = (), *,
            seed: int | None = None, workers: int | None = None, executor: Any = None,
            progress: bool = False, options: SimulationOptions | None = None,
-           budget: Budget | None = None, search_options: SearchOptions | None = None
-           ) -> DesignResult:
+           budget: Budget | None = None, search_options: SearchOptions | None = None,
+           sizing: Sizing | None = None) -> DesignResult:
     """The design that maximises (or minimises) a figure within the limits.
 
     Parameters
     ----------
     scene : Scene or path
-        The start: every key not varied keeps its value.
+        The start: every key not varied keeps its value. A scene file may hold a ``[sizing]``
+        section (:mod:`trebuchet.model.design_sizing`).
     vary : mapping of "section.key" to (lo, hi) or "lo:hi"
         The keys to vary (units of the scene file) and their bounds.
     maximize, minimize : str
@@ -148,15 +154,27 @@ def design(scene: Scene | str, vary: Mapping[str, Any], maximize: str | None = N
         How each design is simulated and what it may cost, as for a sweep.
     search_options : SearchOptions
         Population, generations, polish.
+    sizing : Sizing, optional
+        Shafts sized from their peak loads (default: the scene file's ``[sizing]``, if any).
 
     Returns
     -------
     DesignResult. Raises TrebuchetInputError for an unknown key or figure, bounds the wrong
     way round, a limit that does not parse, and limits no design between the bounds meets.
     """
-    base = as_scene(scene, "design")
-    problem = make_problem(base, vary, maximize, minimize, limits)
+    if isinstance(scene, str | Path):
+        base, from_file = read_scene(scene)
+        sizing = from_file if sizing is None else sizing
+    else:
+        base = as_scene(scene, "design")
     options = options or SimulationOptions()
+    if sizing is not None:
+        options = replace(options, sizing=sizing)
+    problem = make_problem(base, vary, maximize, minimize, limits)
+    clash = [k for k in options.sized_keys if k in problem.keys]
+    if clash:
+        raise TrebuchetInputError(f"--vary {clash[0]}: a [sizing] rule sets it from each "
+                                  "design's peak load; vary something else")
     budget = budget or Budget()
     options.check()
     budget.check()
@@ -186,16 +204,16 @@ def design(scene: Scene | str, vary: Mapping[str, Any], maximize: str | None = N
     history = _history(ev)
     if not ranked:
         raise _no_design(ev)
-    index, figures, table = _verified(ev, ranked, options)
+    index, best, figures, table = _verified(ev, ranked, options)
     row = ev.history[index]
     params = {k: row[k] for k in problem.keys}
     checks = tuple(_check(lim, figures, table) for lim in problem.limits)
     return DesignResult(
-        scene=design_scene(base, params, source=f"{base.source} (designed)"), params=params,
+        scene=replace(best, source=f"{base.source} (designed)"), params=params,
         objective=problem.objective, sense="maximize" if problem.sense > 0 else "minimize",
         figures=figures, table_figures=table, limits=checks, start_params=start_params,
         start_figures=start_figures, start_status=start["status"], history=history,
-        seed=opts.seed)
+        seed=opts.seed, sizing=options.sizing)
 
 
 def _check(limit: Limit, figures: Mapping[str, float], table: Mapping[str, float]
@@ -207,20 +225,20 @@ def _check(limit: Limit, figures: Mapping[str, float], table: Mapping[str, float
 
 
 def _verified(ev: Evaluator, ranked: list[int], options: SimulationOptions
-              ) -> tuple[int, dict[str, float], dict[str, float]]:
+              ) -> tuple[int, Scene, dict[str, float], dict[str, float]]:
     """The first design of ``ranked`` that meets every limit when simulated again at the
     default accuracy, on the summary path and as simulate's table."""
     problem = ev.problem
     for index in ranked[:_VERIFY_TRIES]:
         params = {k: ev.history[index][k] for k in problem.keys}
-        scene = design_scene(problem.base, params)
-        figures = shot_figures(scene, rtol="default", after_release=options.after_release)
+        scene, figures = sized(design_scene(problem.base, params), options.sizing,
+                               partial(shot_figures, after_release=options.after_release))
         with warnings.catch_warnings():  # a slack sling is in the figures already
             warnings.simplefilter("ignore", ModelValidityWarning)
             table = summarize(simulate(scene, after_release=options.after_release), scene)
         checks = [_check(lim, figures.as_dict(), table) for lim in problem.limits]
         if figures.status == "ok" and all(c.met for c in checks):
-            return index, figures.as_dict(), table
+            return index, scene, figures.as_dict(), table
     raise TrebuchetInputError(
         f"design: the {min(len(ranked), _VERIFY_TRIES)} best designs of the search break a "
         "limit when simulated again at the default accuracy; search at --accuracy default")

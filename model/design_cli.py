@@ -87,7 +87,6 @@ def _design(args: argparse.Namespace) -> int:
     from trebuchet.model.design_output import plot_trade, summary_table, write_best
     from trebuchet.model.design_problem import parse_vary
     from trebuchet.model.design_search import SearchOptions
-    from trebuchet.model.scene import Scene
     from trebuchet.model.sweep import Budget, SimulationOptions
     from trebuchet.output import check_target
 
@@ -104,9 +103,8 @@ def _design(args: argparse.Namespace) -> int:
     if plot is not None and plot == out:
         raise TrebuchetInputError(f"--plot {args.plot}: is the -o output too; give another "
                                   "name")
-    base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
-    result = design(base, vary, maximize=args.maximize, minimize=args.minimize,
+    result = design(args.scene, vary, maximize=args.maximize, minimize=args.minimize,
                     limits=args.limit, seed=args.seed, workers=args.workers,
                     executor=args.scheduler, progress=not args.quiet,
                     options=SimulationOptions(rtol=args.rtol),

@@ -86,6 +86,12 @@ def comment_block(result: DesignResult, source: str) -> list[str]:
         lines.append("  (none)")
     lines.append("Varied: " + "; ".join(
         f"{k} = {result.params[k]:.6g}" for k in result.params) + ".")
+    friction = result.scene.to_dict().get("friction", {})
+    for key, figure, tau in result.sizing.rules:
+        stress = key.replace("radius", "shear_stress")
+        lines.append(f"Sized: friction.{key} = {friction[key]:.6g} m = sqrt({figure} / (2 pi "
+                     f"tau)), {figure} = {result.figures[figure]:.6g} N, tau = {tau:g} Pa "
+                     f"([sizing] {stress} = {tau!r}; put it back in the scene to design on).")
     lines.append("Verified by simulating it again at the default accuracy (the summary path "
                  "and simulate's table).")
     return lines

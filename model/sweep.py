@@ -219,7 +219,12 @@ def sweep(base: Scene, grid: Mapping[str, Sequence[float]], *,
                                   + ", ".join(SUMMARY_COLUMNS) + ")")
     if workers is not None and workers < 1:
         raise TrebuchetInputError(f"workers = {workers}: must be at least 1")
-    columns = ["design", *grid, "status", "error", *outputs]
+    clash = [k for k in options.sized_keys if k in grid]
+    if clash:
+        raise TrebuchetInputError(f"grid key {clash[0]!r}: a [sizing] rule sets it from each "
+                                  "design's peak load; leave it out of the grid, or the rule "
+                                  "out of the scene")
+    columns = ["design", *grid, *options.sized_keys, "status", "error", *outputs]
     items = list(enumerate(grid_designs(grid)))
     log, rows = None, []
     if journal is not None:

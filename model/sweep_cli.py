@@ -64,7 +64,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 @cli_command
 def _sweep(args: argparse.Namespace) -> int:
     from trebuchet.csv_table import write_table
-    from trebuchet.model.scene import Scene
+    from trebuchet.model.design_sizing import read_scene
     from trebuchet.model.sweep import Budget, SimulationOptions, parse_grid_option, sweep
     from trebuchet.model.sweep_journal import journal_path
     from trebuchet.output import check_target
@@ -77,11 +77,12 @@ def _sweep(args: argparse.Namespace) -> int:
         grid[key] = values
     if args.workers is not None and args.workers < 1:
         raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
-    options = SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release)
-    options.check()
+    SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release).check()
     out = check_target(args.output, inputs=[args.scene])
     journal = journal_path(out)
-    base = Scene.from_toml(args.scene)
+    base, sizing = read_scene(args.scene)  # its [sizing] rules, if any
+    options = SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release,
+                                sizing=sizing)
     t0 = time.perf_counter()
     # interrupted or killed, the rows finished so far stay in the journal for --resume
     table = sweep(base, grid, executor=args.scheduler, workers=args.workers,

@@ -34,6 +34,7 @@ import itertools
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -41,6 +42,7 @@ import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model import kinematics as kin
+from trebuchet.model.design_sizing import Sizing, sized
 from trebuchet.model.dynamics import trough_sling_angle
 from trebuchet.model.output_size import check_output_size
 from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
@@ -90,12 +92,18 @@ class SimulationOptions:
     """How every design of a sweep is simulated: tolerance ``rtol`` (a number or a preset name
     of ``simulate.ACCURACY``), ``dt`` (None: the peaks over the continuous shot, reduced on the
     integrator's dense output; a step in s: over the rows of ``simulate``'s table at that
-    step, slower) and ``after_release`` (s of phase III the peaks cover; None: simulate's
-    0.5 s)."""
+    step, slower), ``after_release`` (s of phase III the peaks cover; None: simulate's
+    0.5 s) and ``sizing`` (the sizing rules: :mod:`trebuchet.model.design_sizing`)."""
+
+    @property
+    def sized_keys(self) -> list[str]:
+        """The scene keys the sizing rules set (``friction.pivot_radius`` ...)."""
+        return [f"friction.{key}" for key, _, _ in self.sizing.rules]
 
     rtol: float | str = "default"
     dt: float | None = None
     after_release: float | None = None
+    sizing: Sizing = Sizing()
 
     def check(self) -> None:
         """Raise TrebuchetInputError for options no design could run with."""
@@ -335,6 +343,14 @@ def _throw_error(status: str, figures: Any) -> str:
             f"horizontal) and {where}")
 
 
+def _sized_values(scene: Scene, options: SimulationOptions) -> dict[str, float]:
+    """The values the sizing rules gave the design's scene keys."""
+    if not options.sizing:
+        return {}
+    friction = scene.to_dict()["friction"]
+    return {key: float(friction[key.partition(".")[2]]) for key in options.sized_keys}
+
+
 def evaluate_design(base: Scene, item: tuple[int, Mapping[str, float]], *,
                     options: SimulationOptions = SimulationOptions(),
                     outputs: Sequence[str] = tuple(SUMMARY_COLUMNS)) -> dict[str, Any]:
@@ -342,9 +358,10 @@ def evaluate_design(base: Scene, item: tuple[int, Mapping[str, float]], *,
     doc). The figures come from :func:`~trebuchet.model.shot_summary.shot_figures`."""
     index, params = item
     try:
-        scene = design_scene(base, params, source=f"design {index}")
-        figures = shot_figures(scene, rtol=options.rtol, after_release=options.after_release,
-                               dt=options.dt)
+        scene, figures = sized(design_scene(base, params, source=f"design {index}"),
+                               options.sizing, partial(shot_figures, rtol=options.rtol,
+                                                       after_release=options.after_release,
+                                                       dt=options.dt))
     except TrebuchetInputError as exc:
         return failed_row(item, STATUS_REFUSED, str(exc), outputs)
     except MemoryError:
@@ -354,7 +371,8 @@ def evaluate_design(base: Scene, item: tuple[int, Mapping[str, float]], *,
         return failed_row(item, STATUS_FAILED, f"{type(exc).__name__}: {exc}", outputs)
     all_values = figures.as_dict()
     values = {k: all_values[k] for k in outputs}
-    row: dict[str, Any] = {"design": index, **params, "status": STATUS_OK, "error": ""}
+    row: dict[str, Any] = {"design": index, **params, **_sized_values(scene, options),
+                           "status": STATUS_OK, "error": ""}
     bad = [k for k, v in values.items() if not math.isfinite(v)]
     status = figures.status
     if bad:
