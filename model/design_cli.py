@@ -88,16 +88,11 @@ def _design(args: argparse.Namespace) -> int:
     from trebuchet.model.design_problem import parse_vary
     from trebuchet.model.design_search import SearchOptions
     from trebuchet.model.sweep import Budget, SimulationOptions
+    from trebuchet.model.sweep_design import check_workers, keyed_arguments
     from trebuchet.output import check_target
 
-    vary: dict[str, tuple[float, float]] = {}
-    for text in args.vary:
-        key, bounds = parse_vary(text)
-        if key in vary:
-            raise TrebuchetInputError(f"--vary {key}: given twice")
-        vary[key] = bounds
-    if args.workers is not None and args.workers < 1:
-        raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
+    vary = keyed_arguments(args.vary, parse_vary, "--vary")
+    check_workers(args.workers)
     out = check_target(args.output, inputs=[args.scene])
     plot = check_target(args.plot, inputs=[args.scene]) if args.plot else None
     if plot is not None and plot == out:

@@ -44,7 +44,13 @@ from trebuchet.model.sweep_dask import LOST_AFTER, run_dask
 from trebuchet.model.sweep_design import (
     LOST,
     MAX_DESIGNS,
+    STATUS_BACKWARD,
     STATUS_FAILED,
+    STATUS_GROUND,
+    STATUS_OK,
+    STATUS_OVER_BUDGET,
+    STATUS_REFUSED,
+    STATUSES,
     SUMMARY_COLUMNS,
     Budget,
     SimulationOptions,
@@ -66,6 +72,8 @@ __all__ = [
     "SUMMARY_COLUMNS", "SimulationOptions", "Budget", "output_step", "accuracy_option",
     "parse_grid_values", "parse_grid_option", "check_grid", "grid_designs", "design_scene",
     "summarize", "evaluate_design", "DesignRunner", "sweep", "default_workers", "MAX_DESIGNS",
+    "STATUSES", "STATUS_OK", "STATUS_BACKWARD", "STATUS_GROUND", "STATUS_REFUSED",
+    "STATUS_FAILED", "STATUS_OVER_BUDGET",
 ]
 
 

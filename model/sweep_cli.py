@@ -18,7 +18,7 @@ import argparse
 import time
 from collections import Counter
 
-from trebuchet.errors import TrebuchetInputError, cli_command
+from trebuchet.errors import cli_command
 from trebuchet.model.settings import ACCURACY, accuracy_option, add_budget_options, output_step
 from trebuchet.model.units import UNITS_HELP
 
@@ -66,17 +66,12 @@ def _sweep(args: argparse.Namespace) -> int:
     from trebuchet.csv_table import write_table
     from trebuchet.model.design_sizing import read_scene
     from trebuchet.model.sweep import Budget, SimulationOptions, parse_grid_option, sweep
+    from trebuchet.model.sweep_design import check_workers, keyed_arguments
     from trebuchet.model.sweep_journal import journal_path
     from trebuchet.output import check_target
 
-    grid: dict[str, tuple[float, ...]] = {}
-    for text in args.grid:
-        key, values = parse_grid_option(text)
-        if key in grid:
-            raise TrebuchetInputError(f"--grid {key}: given twice")
-        grid[key] = values
-    if args.workers is not None and args.workers < 1:
-        raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
+    grid = keyed_arguments(args.grid, parse_grid_option, "--grid")
+    check_workers(args.workers)
     SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release).check()
     out = check_target(args.output, inputs=[args.scene])
     journal = journal_path(out)

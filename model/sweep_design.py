@@ -68,7 +68,7 @@ __all__ = [
     "STATUS_OVER_BUDGET", "STATUS_BACKWARD", "STATUS_GROUND", "SimulationOptions",
     "output_step", "accuracy_option", "parse_grid_values", "parse_grid_option", "check_grid",
     "grid_designs", "design_scene", "summarize", "evaluate_design", "failed_row", "Budget",
-    "LOST",
+    "LOST", "keyed_arguments", "check_workers",
 ]
 
 #: Summary outputs of a design, with their units (the figures of
@@ -178,6 +178,24 @@ def parse_grid_option(text: str) -> tuple[str, tuple[float, ...]]:
                                   "engine.M=10000,19100 or release.velocity_angle_deg=30:60:7")
     key = key.strip()
     return key, parse_grid_values(values, where=f"--grid {key}")
+
+
+def keyed_arguments(texts: Iterable[str], parse: Any, flag: str) -> dict[str, Any]:
+    """``{key: value}`` of repeated ``KEY=...`` arguments (``--grid``, ``--vary``), each
+    parsed by ``parse`` into ``(key, value)``; a key given twice is refused."""
+    out: dict[str, Any] = {}
+    for text in texts:
+        key, value = parse(text)
+        if key in out:
+            raise TrebuchetInputError(f"{flag} {key}: given twice")
+        out[key] = value
+    return out
+
+
+def check_workers(workers: int | None) -> None:
+    """``--workers``: None (one per core) or at least 1."""
+    if workers is not None and workers < 1:
+        raise TrebuchetInputError(f"--workers {workers}: must be at least 1")
 
 
 def check_grid(grid: Mapping[str, Iterable[float | str]]) -> dict[str, tuple[float | str, ...]]:
