@@ -295,3 +295,26 @@ def test_cli_ctrl_c_keeps_the_journal_and_stops_the_workers(tmp_path):
     time.sleep(0.5)
     assert not [pid for pid in workers if Path(f"/proc/{pid}").exists()
                 and "Z" not in Path(f"/proc/{pid}/stat").read_text().split()[2]]
+
+
+def test_dask_design_over_its_time_budget(horsdal, monkeypatch):
+    """On a cluster a design over its time budget is flagged and its chunk cancelled; the
+    sweep ends without waiting for it."""
+    distributed = pytest.importorskip("dask.distributed")
+    _sabotage_threads = sweep_module.evaluate_design
+
+    def slow(base, item, **kwargs):
+        if item[0] == 7:
+            time.sleep(5.0)
+        return _sabotage_threads(base, item, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "evaluate_design", slow)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        t0 = time.monotonic()
+        table = sweep(horsdal, GRID, executor=client, progress=False, options=FAST,
+                      budget=Budget(seconds=0.3))
+        assert time.monotonic() - t0 < 4.5
+    assert table["status"].iloc[7] == "over_budget" and "Dask" in table["error"].iloc[7]
+    assert (table["status"].iloc[:6] == "ok").all()
