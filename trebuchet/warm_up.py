@@ -1,7 +1,8 @@
 """Compile (or load from numba's cache) every kernel a user's first call would wait for.
 
 ``make install`` runs ``python -m trebuchet.warm_up``: a shot of the paper's engine with all
-its outputs (the simulator's and the load columns' kernels, ~20 s when fresh) and the smoothing
+its outputs (the simulator's, the load columns' and the sweep's peak-search kernels, ~30 s
+when fresh) and the smoothing
 of a short synthetic log (the Kalman filter's kernel, ~2 s).
 """
 
@@ -18,10 +19,12 @@ def warm_up_model() -> None:
     """Simulate the paper's shot with every output, and evaluate each phase's dense output."""
     from trebuchet.model.paper import horsdal_scene_path
     from trebuchet.model.scene import Scene
+    from trebuchet.model.shot_summary import shot_figures
     from trebuchet.model.simulate import integrate, simulate
 
     scene = Scene.from_toml(horsdal_scene_path())
     simulate(scene)
+    shot_figures(scene)  # the sweep's and the optimiser's peak search
     for p in integrate(scene).phases:
         p.sol(np.array([p.t0, p.t1]))
 
