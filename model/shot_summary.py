@@ -32,6 +32,7 @@ from trebuchet.model.shot_kernel import KernelSolution, jit_engine
 from trebuchet.model.simulate import (
     DEFAULT_AFTER_RELEASE,
     DEFAULT_DRY_FIRE,
+    LOST_COLUMNS,
     Trajectory,
     default_times,
     engine_energy,
@@ -193,8 +194,8 @@ def shot_figures(scene: Scene, *, rtol: float | str = "default",
 def _lost_by(traj: Trajectory, t: float) -> float:
     """Heat made by friction at pivot and hinge from the trigger to ``t`` (s), J: the
     integrated lost energies (0 without friction)."""
-    pivot, hinge = traj.lost_energies(np.array([t]))
-    return float(pivot[0] + hinge[0])
+    cols = traj.angle_columns(np.array([t]), lost=True)
+    return float(cols.get("E_loss_pivot", [0.0])[0] + cols.get("E_loss_hinge", [0.0])[0])
 
 
 def _extrema_on_rows(traj: Trajectory, t_hi: float, t_clear: float,
@@ -205,9 +206,9 @@ def _extrema_on_rows(traj: Trajectory, t_hi: float, t_clear: float,
     scene = traj.scene
     times = default_times(traj, dt)
     times = np.unique(np.append(times[times <= t_hi], t_hi))
-    cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
-    if traj.friction:  # the integrated heat, as simulate's table has it
-        cols["E_loss_pivot"], cols["E_loss_hinge"] = traj.lost_energies(times)
+    angles = traj.angle_columns(times, lost=True)  # the integrated heat, as simulate's
+    lost = {name: angles.pop(name) for name in LOST_COLUMNS if name in angles}
+    cols = load_columns(angles, scene, release_state=traj.release_state, lost=lost or None)
     e, H = scene.engine, scene.start.H
     th, ps = cols["theta"], cols["psi"]
     y_M = kin.counterweight_position_xy(np.cos(th), np.sin(th), np.cos(ps), np.sin(ps), e, H)[1]
