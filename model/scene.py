@@ -159,7 +159,7 @@ class Scene:
                 raise TrebuchetInputError(f"{path}: scene file not found") from None
             raise TrebuchetInputError(f"{path}: {exc.message}") from None
         try:
-            text = raw.decode("utf-8")
+            text = raw.decode("utf-8-sig")  # a byte-order mark (Windows' editors) is no TOML
         except UnicodeDecodeError as exc:
             raise TrebuchetInputError(f"{path}: cannot read scene file: not UTF-8 text (byte "
                                       f"{exc.start}: a scene file is TOML in UTF-8)") from None

@@ -190,3 +190,34 @@ def test_a_scene_whose_sling_cannot_be_the_logs_is_refused_naming_L4(tmp_path):
     assert "horsdal_240fps.csv" in message and "[engine] L4 = 0.001 m" in message
     assert "sling of 5.51 m" in message
     assert "5.51 m" in scene_check(log, SCENE).note
+
+
+def test_a_file_cut_inside_a_row_says_so_naming_the_row(tmp_path):
+    text = LOG.read_text(encoding="utf-8")
+    end = text.index("\n", len(text) // 2)
+    cut = text[: text.rindex(",", 0, end)]  # inside a row, its last cell gone
+    path = tmp_path / "cut.csv"
+    path.write_text(cut, encoding="utf-8")
+    _, notes = _read(path)
+    last = cut.count("\n") + 1
+    assert any(f"ends inside row {last}" in n and "cut" in n for n in notes)
+    _, honest = _read(LOG)
+    assert not any("ends inside row" in n for n in honest)
+
+
+def test_a_byte_order_mark_before_a_scene_is_read(tmp_path):
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + SCENE.read_bytes())
+    assert Scene.from_toml(path) == Scene.from_toml(SCENE)
+
+
+def test_an_anipose_coordinate_no_survey_reaches_is_refused_naming_it(exports, tmp_path):
+    folder, truths = exports
+    lines = (folder / "anipose_pose3d.csv").read_text().splitlines()
+    cells = lines[40].split(",")
+    cells[0] = "1e300"
+    lines[40] = ",".join(cells)
+    path = _write(tmp_path, lines, "pose.csv")
+    message = _refusal(read_log, path, **truths["anipose_pose3d.csv"].read)
+    column = lines[0].split(",")[0]
+    assert f"pose.csv, row 41, column '{column}'" in message and "1e+300" in message

@@ -20,6 +20,7 @@ from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
 from trebuchet.ingest.geometry.stuck_points import off_engine, stuck_runs
 from trebuchet.ingest.geometry.user_calibration import UserCalibration
 from trebuchet.ingest.logs.units import y_axis
+from trebuchet.ingest.readers.limits import MAX_COORDINATE
 from trebuchet.ingest.readers.source import LogSource, ParsedLog
 from trebuchet.ingest.readers.table import format_rows
 
@@ -115,10 +116,6 @@ def from_points(
         leaves_sling=leaves,
         decisions=decisions,
     )
-
-
-#: Largest coordinate (in any unit: px, mm, m) of a point of a filmed engine.
-MAX_COORDINATE = 1e9
 
 
 def _check_positions(x: np.ndarray, y: np.ndarray, rows: np.ndarray, label: str) -> None:

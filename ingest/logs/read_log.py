@@ -261,7 +261,8 @@ def _read_source(path: str | Path, fps: float | None, min_likelihood: float,
         else:
             source = read_deeplabcut_h5(raw, fps, min_likelihood, individual)
         return _frame_indexed(source, fps, time_unit)
-    numbered = split_lines(decode_text(raw))
+    text = decode_text(raw)
+    numbered = split_lines(text)
     if looks_like_deeplabcut(numbered):
         source = read_deeplabcut(numbered, fps, min_likelihood, individual)
     elif looks_like_sleap_csv(numbered):
@@ -270,17 +271,36 @@ def _read_source(path: str | Path, fps: float | None, min_likelihood: float,
         source = read_anipose(numbered, fps, points)
     else:
         source = None
+    cut = _cut_last_row(text, numbered)
     if source is not None:
+        source.repairs.extend(cut)
         return _frame_indexed(source, fps, time_unit)
     if individual is not None:
         raise TrebuchetInputError(
             f"individual={individual!r} is for DeepLabCut multi-animal and SLEAP files; "
             "this file has no individuals")
     if looks_like_tracker(numbered):
-        return read_tracker(numbered, fps, time_unit)
-    if looks_like_kinovea(numbered):
-        return read_kinovea(numbered, fps, time_unit)
-    return read_generic(numbered, fps, time_unit)
+        source = read_tracker(numbered, fps, time_unit)
+    elif looks_like_kinovea(numbered):
+        source = read_kinovea(numbered, fps, time_unit)
+    else:
+        source = read_generic(numbered, fps, time_unit)
+    source.repairs.extend(cut)
+    return source
+
+
+def _cut_last_row(text: str, numbered: list[tuple[int, str]]) -> list[str]:
+    """A note when the file ends without a line end inside a row shorter than the one
+    before (fewer delimiters): an export or copy cut short, its last row partial."""
+    if len(numbered) < 2 or text.endswith(("\n", "\r")):
+        return []
+    (_, before), (number, last) = numbered[-2], numbered[-1]
+    delimiter = max(",;\t", key=before.count)
+    if last.count(delimiter) >= before.count(delimiter):
+        return []
+    return [f"the file ends inside row {number}, which has fewer cells than the row before "
+            "and no line end: the file is cut (an interrupted export or copy?); its cells "
+            "missing are gaps"]
 
 
 def _frame_indexed(source: LogSource, fps: float | None, time_unit: str | None) -> LogSource:

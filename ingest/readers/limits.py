@@ -20,3 +20,6 @@ MAX_HDF5_BYTES = 256 << 20
 MAX_DATASET_BYTES = 256 << 20
 #: Characters of one cell (the csv module's own field limit): no number or name is longer.
 MAX_CELL_CHARS = 131_072
+#: Largest coordinate of a tracked point, in any unit (px, mm, m): no image or survey of an
+#: engine reaches it.
+MAX_COORDINATE = 1e9
