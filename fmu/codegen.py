@@ -43,8 +43,10 @@ __all__ = ["Formula", "FORMULAS", "PARAMETER_NAMES", "ANGLE_NAMES", "LOAD_OUTPUT
            "generate_c", "generate_header", "engine_namespace", "traced", "sympy_math"]
 
 #: The engine's parameters, in the order of the generated functions' ``q`` array: lengths (m),
-#: masses (kg), I (kg m²), the fixed counterweight's offset ψ − θ (rad), g (m/s²), H (m).
-PARAMETER_NAMES = ("L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m", "I", "offset", "g", "H")
+#: masses (kg), I (kg m²), the fixed counterweight's offset ψ − θ (rad), g (m/s²), H (m), and
+#: the bearings' friction: ``μ r`` at pivot and hinge (m) and the sign's smoothing rate (rad/s).
+PARAMETER_NAMES = ("L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m", "I", "offset", "g", "H",
+                   "pivot_friction", "hinge_friction", "friction_rate")
 #: Angle outputs of every phase, in order (the sling's are 0 after release).
 ANGLE_NAMES = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "psi_dd",
                "phi_dd")
@@ -53,6 +55,13 @@ LOAD_OUTPUTS = tuple(n for n in OUTPUT_NAMES if n != "phase" and n not in ANGLE_
 _STATE = {1: ("th", "ps", "th_d", "ps_d"), 2: ("th", "ps", "ph", "th_d", "ps_d", "ph_d"),
           3: ("th", "ps", "th_d", "ps_d")}
 _REST = ("rest_m", "rest_M", "rest_beam")
+#: With friction: the lost energies (states, in units of ``dynamics.energy_scale``) and the
+#: couples' generalised forces (N m, solved by the C glue with the generated Newton steps).
+_LOST = ("e_P", "e_H")
+_Q = ("Q_th", "Q_ps")
+#: The pieces of ``dynamics.friction_pieces`` and Newton's start ``dynamics.friction_start``.
+PIECES = tuple(f"p{i}" for i in range(14))
+_NEWTON = ("n_R", "n_H")
 
 
 @cache
@@ -60,7 +69,8 @@ def sympy_math() -> SimpleNamespace:
     """The names of :mod:`math` the model uses, as sympy functions."""
     import sympy as sp
 
-    return SimpleNamespace(sin=sp.sin, cos=sp.cos, tan=sp.tan, asin=sp.asin, sqrt=sp.sqrt,
+    return SimpleNamespace(sin=sp.sin, cos=sp.cos, tan=sp.tan, tanh=sp.tanh, asin=sp.asin,
+                           sqrt=sp.sqrt,
                            pi=sp.pi, nan=sp.nan, hypot=lambda a, b: sp.sqrt(a * a + b * b))
 
 
@@ -78,14 +88,18 @@ def traced(f: Callable, lib: Any) -> Callable:
     return types.FunctionType(f.__code__, names, f.__name__, f.__defaults__, f.__closure__)
 
 
-def engine_namespace(q: Sequence[Any], fixed: bool) -> SimpleNamespace:
+def engine_namespace(q: Sequence[Any], fixed: bool, friction: bool = False) -> SimpleNamespace:
     """An engine-like object (the attributes of :class:`~trebuchet.model.scene.Engine`) from
-    the parameter values ``q`` (:data:`PARAMETER_NAMES`)."""
+    the parameter values ``q`` (:data:`PARAMETER_NAMES`); without ``friction`` the bearings'
+    are 0, so the formulas are the frictionless ones."""
     v = dict(zip(PARAMETER_NAMES, q, strict=True))
     return SimpleNamespace(L1=v["L1"], L2=v["L2"], L_CM=v["L_CM"], L3=v["L3"], L4=v["L4"],
                            m_b=v["m_b"], M=v["M"], m=v["m"], I=v["I"],
                            counterweight_offset=v["offset"] if fixed else None,
-                           fixed_counterweight=fixed)
+                           fixed_counterweight=fixed,
+                           pivot_friction=v["pivot_friction"] if friction else 0.0,
+                           hinge_friction=v["hinge_friction"] if friction else 0.0,
+                           friction_rate=v["friction_rate"])
 
 
 #: How closely a generated Jacobian matches the central difference (relative to its peak).
@@ -112,30 +126,33 @@ class Formula:
     fixed: bool | None = None
     dry: bool = False
     tolerance: float = 1e-12
+    friction: bool = False
 
 
-def _angles(phase: int, x: dict[str, Any], e: Any, g: Any, H: Any, lib: Any) -> tuple:
-    """θ, ψ, φ and their rates and accelerations of ``phase`` from its state (φ 0 in III)."""
-    th, ps = x["th"], x["ps"]
-    th_d, ps_d = x["th_d"], x["ps_d"]
-    if phase == 1:
-        ph, ph_d, th_dd, ps_dd, ph_dd = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H,
-                                                                 lib)
-    elif phase == 2:
-        ph, ph_d = x["ph"], x["ph_d"]
-        th_dd, ps_dd, ph_dd = dyn.accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, lib)
+def _motion(phase: int, x: dict[str, Any], e: Any, g: Any, H: Any, lib: Any,
+            friction: bool) -> tuple:
+    """:func:`dynamics.phase_motion` of ``phase`` from its state (with friction: under the
+    couples' generalised forces ``Q_th``, ``Q_ps`` of the inputs); φ 0 in III."""
+    y = [x[n] for n in _STATE[phase]]
+    if friction:
+        m = list(dyn.motion_under(phase, y, e, g, H, x["Q_th"], x["Q_ps"], lib))
     else:
-        ph = ph_d = ph_dd = 0.0
-        th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g, lib)
-    return th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd
+        m = list(dyn.phase_motion(phase, y, e, g, H, lib))
+    if phase == 3:
+        m[2] = m[5] = m[8] = 0.0
+    return tuple(m)
 
 
-def _outputs(phase: int) -> Build:
+def _outputs(phase: int, friction: bool = False) -> Build:
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
-        th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = _angles(phase, x, e, g, H, lib)
+        th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = _motion(phase, x, e, g, H, lib,
+                                                                    friction)[:9]
         row = traced(frc.row_loads, lib)(phase, th, th_d, th_dd, ps, ps_d, ps_dd, ph, ph_d,
                                          ph_dd, e, g, H, False, tuple(x[r] for r in _REST))
         cols = dict(zip(frc.ROW_COLUMNS, row, strict=True))
+        scale = dyn.energy_scale(e, g)
+        cols["E_loss_pivot"] = x["e_P"] * scale if friction else 0.0
+        cols["E_loss_hinge"] = x["e_H"] * scale if friction else 0.0
         return [th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd,
                 *(cols[n] for n in LOAD_OUTPUTS)]
     return build
@@ -167,9 +184,13 @@ def _jacobian(phase: int) -> Build:
     return build
 
 
-def _rates(phase: int) -> Build:
+def _rates(phase: int, friction: bool = False) -> Build:
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
         y = [x[n] for n in _STATE[phase]]
+        if friction:
+            y += [x[n] for n in _LOST]
+            d = dyn.state_derivative_under(phase, y, e, g, H, x["Q_th"], x["Q_ps"], lib)
+            return d[:len(y)]
         if phase == 1:
             return dyn.state_rates_phase1(y, e, g, H, lib)
         if phase == 2:
@@ -221,6 +242,33 @@ def _projectile(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any
     return [*r, *v]
 
 
+def _pieces(phase: int) -> Build:
+    """:func:`dynamics.friction_pieces` of ``phase`` and Newton's start
+    (:func:`dynamics.friction_start`)."""
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+        y = [x[n] for n in _STATE[phase]]
+        th, ps, ph, th_d, ps_d, ph_d = (y[0], y[1], y[2], y[3], y[4], y[5]) if phase == 2 else (
+            y[0], y[1], 0.0, y[2], y[3], 0.0)
+        p = dyn.friction_pieces(phase, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
+        return [*p, *dyn.friction_start(p, lib)]
+    return build
+
+
+def _newton(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+    return dyn.friction_newton_step(tuple(x[n] for n in PIECES), x["n_R"], x["n_H"], lib)
+
+
+def _couples(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+    p = tuple(x.get(n, 0.0) for n in PIECES)
+    return list(dyn.friction_result(p, x["n_R"], x["n_H"])[:2])
+
+
+def _lift_off_under(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+    y = [x[n] for n in _STATE[1]]
+    m = dyn.motion_under(1, y, e, g, H, x["Q_th"], x["Q_ps"], lib)
+    return [traced(pev.trough_margin, lib)(m, e, g)]
+
+
 def _event(kind: int, phase: int) -> Build:
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
         value = traced(pev.event_value, lib)(kind, x.get("t", 0.0), _state(x, phase), e, g, H,
@@ -250,7 +298,12 @@ def _all_formulas() -> tuple[Formula, ...]:
                                _jacobian(phase), fixed, tolerance=JACOBIAN_TOLERANCE))
         out.append(Formula(f"lift_off_{cw}", "phase_events.lift_off_margin: F_N / (m g)",
                            _STATE[1], ("margin",), _event(pev.LIFT_OFF, 1), fixed))
+        out += _friction_formulas(fixed, angles_loads)
     out += [
+        Formula("friction_newton", "dynamics.friction_newton_step: one Newton step on the "
+                "bearings' load magnitudes (N)", (*PIECES, *_NEWTON), _NEWTON, _newton),
+        Formula("friction_couples", "dynamics.friction_result: Q_th, Q_ps (N m)",
+                ("p0", "p1", *_NEWTON), _Q, _couples),
         Formula("sling_upright", "phase_events.sling_upright_margin", _STATE[1], ("margin",),
                 _event(pev.SLING_UPRIGHT, 1)),
         Formula("ground", "phase_events.projectile_height (m)", _STATE[2], ("height",),
@@ -272,10 +325,41 @@ def _all_formulas() -> tuple[Formula, ...]:
                 ("vx", "vy", "y", "rest_m"), ("E_m",), _flight_energy),
         Formula("rest_energies", "forces.energies_xy at rest (J)", ("th", "ps", "y_m"),
                 _REST, _rest_energies),
+        Formula("energy_scale", "dynamics.energy_scale (J): the unit of the lost energies' states",
+                (), ("scale",), lambda e, g, H, x, lib: [dyn.energy_scale(e, g)]),
         Formula("default_inertia", "scene.default_moment_of_inertia (kg m2)", (), ("I",),
                 lambda e, g, H, x, lib: [default_moment_of_inertia(e.m_b, e.L1, e.L2)]),
     ]
     return tuple(out)
+
+
+def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formula]:
+    """The formulas of an engine with friction in its bearings: the couples' pieces, and the
+    rates, outputs and lift-off under the couples' generalised forces (the C glue solves
+    those with :data:`FRICTION_NEWTON_STEPS` generated Newton steps, as
+    :func:`dynamics.friction_forces` does)."""
+    cw = "fixed" if fixed else "hinged"
+    out = []
+    for phase in (1, 2, 3):
+        out.append(Formula(f"friction_pieces{phase}_{cw}", f"phase {phase}: "
+                           "dynamics.friction_pieces and friction_start", _STATE[phase],
+                           (*PIECES, *_NEWTON), _pieces(phase), fixed, friction=True))
+        out.append(Formula(f"rates{phase}_{cw}_friction", f"phase {phase} state derivative "
+                           "with friction (dynamics.state_derivative_under)",
+                           (*_STATE[phase], *_LOST, *_Q),
+                           tuple(f"d_{n}" for n in (*_STATE[phase], *_LOST)),
+                           _rates(phase, True), fixed, friction=True))
+        out.append(Formula(f"outputs{phase}_{cw}_friction", f"phase {phase} angles, rates, "
+                           "accelerations and loads with friction",
+                           (*_STATE[phase], *_LOST, *_Q, *_REST), angles_loads,
+                           _outputs(phase, True), fixed, friction=True))
+    out.append(Formula(f"outputs3_{cw}_dry_friction", "dry fire with friction: angles and loads",
+                       (*_STATE[3], *_LOST, *_Q, *_REST), angles_loads, _outputs(3, True),
+                       fixed, dry=True, friction=True))
+    out.append(Formula(f"lift_off_{cw}_friction", "phase_events.trough_margin under the "
+                       "couples", (*_STATE[1], *_Q), ("margin",), _lift_off_under, fixed,
+                       friction=True))
+    return out
 
 
 FORMULAS: tuple[Formula, ...] = _all_formulas()
@@ -300,7 +384,7 @@ def _function_c(f: Formula) -> str:
     if f.dry:
         q[PARAMETER_NAMES.index("m")] = sp.Float(0.0)
     x = {n: sp.Symbol(f"x_{n}", real=True) for n in f.inputs}
-    e = engine_namespace(q, bool(f.fixed))
+    e = engine_namespace(q, bool(f.fixed), f.friction)
     g, H = q[PARAMETER_NAMES.index("g")], q[PARAMETER_NAMES.index("H")]
     exprs = [sp.sympify(v) for v in f.build(e, g, H, x, sympy_math())]
     if len(exprs) != len(f.outputs):
@@ -326,6 +410,8 @@ def generate_header() -> str:
              "#ifndef TREB_FORMULAS_H", "#define TREB_FORMULAS_H", ""]
     lines += [f"#define TREB_Q_{n} {i}" for i, n in enumerate(PARAMETER_NAMES)]
     lines += [f"#define TREB_NQ {len(PARAMETER_NAMES)}",
+              f"#define TREB_FRICTION_NEWTON_STEPS {dyn.FRICTION_NEWTON_STEPS}",
+              f"#define TREB_N_PIECES {len(PIECES)}",
               f"#define TREB_N_OUTPUTS {len(ANGLE_NAMES) + len(LOAD_OUTPUTS)}", ""]
     lines += [f"#define TREB_OUT_{n} {i}" for i, n in enumerate((*ANGLE_NAMES, *LOAD_OUTPUTS))]
     lines += [""]

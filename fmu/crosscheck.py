@@ -61,6 +61,9 @@ def reference(times: Sequence[float] | np.ndarray, values: Mapping[str, float | 
             scene = scene.with_release(time=command_time,
                                        velocity_angle=scene.release.velocity_angle)
     run = simulate(scene, t_eval=np.asarray(times, dtype=float), after_release=after)
+    for name in OUTPUT_NAMES:  # a frictionless scene's output has no friction columns: 0
+        if name not in run.columns:
+            run[name] = 0.0
     out = run.loc[:, list(OUTPUT_NAMES)].copy()
     free = out["phase"].to_numpy() == 3
     out.loc[free, ["phi", "phi_d", "phi_dd"]] = 0.0
@@ -81,7 +84,7 @@ def write_crosscheck(fmu: str | Path, out_dir: str | Path) -> Path:
     ref = reference(times, command_time=COMMAND_TIME, t_stop=STOP_TIME)
     rel = Path("fmus", "2.0", "cs", fmpy.platform, "trebuchet", __version__, MODEL_NAME)
     out_dir = Path(out_dir)
-    with atomic_dir(out_dir) as tmp:
+    with atomic_dir(out_dir, inputs=[fmu]) as tmp:
         folder = tmp / rel
         folder.mkdir(parents=True)
         shutil.copyfile(fmu, folder / f"{MODEL_NAME}.fmu")

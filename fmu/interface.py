@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from trebuchet.model.forces import LOAD_COLUMNS
-from trebuchet.model.scene import Scene
+from trebuchet.model.scene import DEFAULT_SMOOTHING_RATE, Scene
 
 __all__ = ["Variable", "VARIABLES", "PARAMETERS", "OUTPUTS", "OUTPUT_NAMES", "RELEASE_COMMAND",
            "UNITS",
@@ -123,6 +123,18 @@ PARAMETERS: tuple[Variable, ...] = (
              "drag coefficient (used with flight.model = \"drag\")", 0.47, 0.0, 10.0),
     Variable("flight.air_density", "parameter", "Real", "kg/m3",
              "air density (used with flight.model = \"drag\")", 1.225, 0.0, 100.0),
+    Variable("friction.pivot_mu", "parameter", "Real", None,
+             "Coulomb coefficient at the beam's shaft (0 with pivot_radius 0: no friction)",
+             0.0, 0.0, 10.0),
+    Variable("friction.pivot_radius", "parameter", "Real", "m", "radius of the beam's shaft",
+             0.0, 0.0, 10.0),
+    Variable("friction.hinge_mu", "parameter", "Real", None,
+             "Coulomb coefficient at the counterweight's hinge pin", 0.0, 0.0, 10.0),
+    Variable("friction.hinge_radius", "parameter", "Real", "m",
+             "radius of the counterweight's hinge pin", 0.0, 0.0, 10.0),
+    Variable("friction.smoothing_rate", "parameter", "Real", "rad/s",
+             "the friction couples' sign of a sliding rate w is tanh(w / smoothing_rate)",
+             DEFAULT_SMOOTHING_RATE, 0.0, 100.0),
 )
 
 RELEASE_COMMAND = Variable(
@@ -136,6 +148,13 @@ _ANGLES = (
     ("phi", "rad", "sling angle (0 after release)"),
 )
 _LOAD_UNITS = {"F": "N", "t": "N.m", "P": "W", "E": "J", "x": "m", "y": "m", "v": "m/s"}
+_FRICTION_OUTPUTS = (
+    ("torque_friction", "N.m", "the friction couples' torque on the beam (in torque)"),
+    ("P_loss_pivot", "W", "heat made at the pivot by friction"),
+    ("P_loss_hinge", "W", "heat made at the hinge by friction"),
+    ("E_loss_pivot", "J", "heat made at the pivot since t = 0"),
+    ("E_loss_hinge", "J", "heat made at the hinge since t = 0"),
+)
 _LOAD_TEXT = {
     "F_S": "sling tension on the projectile", "F_H": "force from the beam on the counterweight "
     "at the hinge", "F_CM": "internal force on the beam's centre of mass",
@@ -167,6 +186,7 @@ OUTPUTS: tuple[Variable, ...] = (
     Variable("sling_tension", "output", "Real", "N",
              "sling tension (negative: the sling would be slack, the model is outside its "
              "validity)"),
+    *(Variable(name, "output", "Real", unit, text) for name, unit, text in _FRICTION_OUTPUTS),
 )
 
 VARIABLES: tuple[Variable, ...] = (*PARAMETERS, RELEASE_COMMAND, *OUTPUTS)
@@ -190,6 +210,8 @@ def choice_index(v: Variable, value: str) -> int:
 
 _OPTIONAL_ZERO = {"engine.I", "engine.H", "release.time", "release.velocity_angle_deg"}
 _DRAG_ONLY = {"flight.diameter", "flight.drag_coefficient", "flight.air_density"}
+_FRICTION = ("friction.pivot_mu", "friction.pivot_radius", "friction.hinge_mu",
+             "friction.hinge_radius")
 
 
 def _nested(values: Mapping[str, float | str], release_key: str | None) -> dict:
@@ -197,6 +219,7 @@ def _nested(values: Mapping[str, float | str], release_key: str | None) -> dict:
     default) are left out, so a scene file without them means the same."""
     data: dict[str, dict[str, float | str]] = {}
     drag = choice_name(_BY_NAME["flight.model"], values["flight.model"]) != "vacuum"
+    friction = any(float(values[k]) != 0.0 for k in _FRICTION)
     for p in PARAMETERS:
         section, key = p.name.split(".", 1)
         if p.type == "Enumeration":
@@ -209,6 +232,8 @@ def _nested(values: Mapping[str, float | str], release_key: str | None) -> dict:
                 continue
         if (section == "release" and key != release_key) or (p.name in _DRAG_ONLY
                                                              and not drag):
+            continue
+        if section == "friction" and not friction:  # no friction: no [friction] section
             continue
         data.setdefault(section, {})[key] = value
     return data
@@ -244,7 +269,7 @@ def parameters_from_scene(scene: Scene) -> dict[str, float | str]:
     d = scene.to_dict()
     values: dict[str, float | str] = {p.name: p.start if p.type == "Enumeration" else 0.0
                                       for p in PARAMETERS}
-    for name in _DRAG_ONLY:
+    for name in (*_DRAG_ONLY, "friction.smoothing_rate"):
         values[name] = next(p.start for p in PARAMETERS if p.name == name)
     for section, keys in d.items():
         for key, value in keys.items():

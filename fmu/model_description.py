@@ -20,7 +20,8 @@ __all__ = ["model_description", "STATES", "MODEL_NAME", "N_EVENT_INDICATORS"]
 MODEL_NAME = "Trebuchet"
 #: The continuous states of the model exchange, in order, with their derivatives.
 STATES = (("theta", "theta_d"), ("psi", "psi_d"), ("phi", "phi_d"),
-          ("theta_d", "theta_dd"), ("psi_d", "psi_dd"), ("phi_d", "phi_dd"))
+          ("theta_d", "theta_dd"), ("psi_d", "psi_dd"), ("phi_d", "phi_dd"),
+          ("E_loss_pivot", "P_loss_pivot"), ("E_loss_hinge", "P_loss_hinge"))
 N_EVENT_INDICATORS = 3
 _INDICATORS = ("phase I: lift-off margin F_N/(m g); phase II: projectile height (m)",
                "phase I: sling upright margin; phase II: climb margin (m/s, release angle)",

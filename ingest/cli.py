@@ -1,4 +1,9 @@
-"""Sub-command of the ingest room: ``trebuchet forces LOG --scene SCENE -o loads.csv``."""
+"""Sub-command of the ingest room: ``trebuchet forces LOG --scene SCENE -o loads.csv``.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the parser is built from
+:mod:`trebuchet.ingest.settings`; numpy, pandas and the reconstruction load when ``forces``
+runs.
+"""
 
 from __future__ import annotations
 
@@ -6,15 +11,14 @@ import argparse
 import math
 import sys
 import warnings
+from typing import TYPE_CHECKING
 
-import numpy as np
-import pandas as pd
+from trebuchet.errors import TrebuchetInputError, cli_command, command_line
+from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, TROUGH
+from trebuchet.model.units import UNITS_HELP
 
-from trebuchet.errors import TrebuchetInputError, cli_command
-from trebuchet.ingest.logs.result import read_log_info
-from trebuchet.ingest.reconstruct import FORMS, IMAGE_CALIBRATIONS, TROUGH, reconstruct
-from trebuchet.ingest.reconstruction import reconstruction_of
-from trebuchet.output import check_target, write_csv
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["register", "forces_summary", "parse_pairs", "add_log_arguments", "log_options",
            "add_reconstruct_arguments", "reconstruct_options", "EVENT_OPTIONS"]
@@ -33,6 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "write every force, torque and power with its standard deviation.")
     add_reconstruct_arguments(p)
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.add_argument("--units", action="store_true", help=UNITS_HELP)
+    p.add_argument("--quiet", action="store_true",
+                   help="no summary on stdout (warnings still go to stderr)")
     p.set_defaults(run=_forces)
 
 
@@ -103,8 +110,11 @@ def log_options(args: argparse.Namespace) -> dict[str, object]:
     """The keywords of :func:`read_log` from the log arguments (``fps``, ``columns``,
     ``points``, and those given of ``time_unit``, ``angle_unit``, ``min_likelihood``,
     ``individual``, ``calibration``), each checked with an error naming the option."""
-    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
-        raise TrebuchetInputError(f"--fps {args.fps:g}: must be a positive frame rate")
+    if args.fps is not None:  # before the file is read, which would take the blame
+        from trebuchet.ingest.readers.timebase import check_fps
+
+        with command_line():
+            check_fps(args.fps)
     options: dict[str, object] = {
         "fps": args.fps,
         "columns": parse_pairs(args.column, "--column", ANGLE_NAMES, "right"),
@@ -171,7 +181,7 @@ def _fmt_time(value: float | None, sd: float | None = None) -> str:
     if value is None:
         return "none"
     text = f"{value:.4f} s"
-    if sd is not None and np.isfinite(sd) and sd > 0:
+    if sd is not None and math.isfinite(sd) and sd > 0:
         text += f" ± {sd:.4f}"
     return text
 
@@ -180,6 +190,11 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     """The summary the command prints: log, noise per angle, events, repairs, peak loads
     with their sd, advisories, validity findings and notes (e.g. a log without rest, whose
     ``t_shot`` counts from its first row)."""
+    import numpy as np
+
+    from trebuchet.ingest.logs.result import read_log_info
+    from trebuchet.ingest.reconstruction import reconstruction_of
+
     a = reconstruction_of(result)
     info = read_log_info(result)
     source, fmt, repairs = (("log", "table", ()) if info is None
@@ -194,8 +209,7 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     for key, label in (("trigger", "trigger"), ("lift_off", "lift-off"), ("release", "release")):
         lines.append(f"  {label:9s}{_fmt_time(ev.get(key), sd.get(key))}"
                      f"  ({src.get(key, '')})")
-    lines.append("repairs:" + (" none" if not repairs else ""))
-    lines += [f"  {r}" for r in repairs]
+    lines.append(f"repairs: {len(repairs)}, each in a warning" if repairs else "repairs: none")
     lines.append("peak loads (sd at the peak):")
     moving = result["phase"].to_numpy() > 0
     t = result["t"].to_numpy()
@@ -220,15 +234,23 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
 
 @cli_command
 def _forces(args: argparse.Namespace) -> int:
-    check_target(args.output)
+    from trebuchet.csv_table import write_table
+    from trebuchet.ingest.reconstruct import reconstruct
+    from trebuchet.model.units import column_units
+    from trebuchet.output import check_target
+
+    inputs = [args.log, args.scene, args.calibration]
+    check_target(args.output, inputs=inputs)
     options = reconstruct_options(args)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = reconstruct(args.log, args.scene, **options)
-    write_csv(result, args.output)
-    summary = forces_summary(result, args.output)
-    print(summary)
-    for w in caught:  # what the summary does not already say
+    write_table(result, args.output, inputs=inputs,
+                units=column_units(list(result.columns)) if args.units else None)
+    summary = "" if args.quiet else forces_summary(result, args.output)
+    if summary:
+        print(summary)
+    for w in caught:  # on stderr, as compare's: what the summary does not already say
         text = str(w.message)
         if not any(part.strip() in text for part in summary.splitlines()[1:]
                    if len(part.strip()) > 20):

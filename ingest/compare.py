@@ -61,6 +61,7 @@ import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError, check_choice
 from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
+from trebuchet.ingest.settings import ALIGN_MODES, CHANCE_RUNS, RELEASE_MODES
 from trebuchet.ingest.uncertainty import BAND_SD
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import Trajectory, integrate, simulate
@@ -71,13 +72,11 @@ __all__ = ["Quantity", "QUANTITIES", "METRIC_COLUMNS", "CONTRACT_COLUMNS", "CHAN
            "predict", "metrics", "metric_row", "event_table", "outside_spans", "chance_levels",
            "compare_measured", "compare"]
 
-RELEASE_MODES = ("auto", "log", "scene")
 #: The keywords of ``read_log`` among the options a caller passes on (the log is read
 #: first, then reconstructed, so that ``reconstruct`` needs none of them).
 READ_LOG_KEYWORDS = ("fps", "columns", "points", "time_unit", "angle_unit", "min_likelihood",
                      "individual", "calibration")
 ATTRS = ("lag", "angle_chi2", "alignment", "release_rule")
-ALIGN_MODES = ("fit", "trigger")
 
 
 @dataclass(frozen=True)
@@ -147,7 +146,7 @@ class CompareOptions:
     max_lag: float = 0.1
     band_sd: float = BAND_SD
     rtol: float | str = "default"
-    chance_runs: int = 12
+    chance_runs: int = CHANCE_RUNS
     chance_level: float = 0.95
     seed: int = 0
 

@@ -69,6 +69,7 @@ from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.logs.scene_check import scene_check
 from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
+from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, TROUGH
 from trebuchet.ingest.smoothing.counterweight_continuation import with_continued_counterweight
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.result import smoothing_of, with_angle_rows, with_smoothing
@@ -91,8 +92,6 @@ __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_pha
            "sling_track_end", "PRESETS", "smoother_settings", "propagation_order",
            "STATE_COLUMNS", "FORMS"]
 
-FORMS = ("projected", "direct")
-TROUGH = ("constraint", "measured")
 STATE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES]
 DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
 #: preset -> (smoother settings, uncertainty propagation order); see ReconstructOptions.
@@ -227,10 +226,6 @@ class ReconstructOptions:
         check_choice("reconstruct", "trough", self.trough, TROUGH)
         if not (np.isfinite(self.event_sd_frames) and self.event_sd_frames >= 0):
             raise TrebuchetInputError("reconstruct: event_sd_frames must be ≥ 0")
-
-
-#: How a point log's angles are found: "engine" (self-calibration) or "none" (read_log's).
-IMAGE_CALIBRATIONS = ("none", "engine")
 
 
 # ----------------------------------------------------------------------------- phases

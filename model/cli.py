@@ -1,4 +1,8 @@
-"""Sub-commands of the model: ``simulate`` and ``paper``."""
+"""Sub-commands of the model: ``simulate`` and ``paper``.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): :func:`register` builds the
+parsers from :mod:`trebuchet.model.settings`; the simulator loads when a command runs.
+"""
 
 from __future__ import annotations
 
@@ -6,25 +10,31 @@ import argparse
 import sys
 
 from trebuchet.errors import cli_command
-from trebuchet.model.paper import horsdal_scene_path, paper_comparison
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, DEFAULT_RTOL, simulate
-from trebuchet.model.sweep import accuracy_option, output_step
-from trebuchet.output import check_target, write_csv
+from trebuchet.model.output_size import MAX_AFTER_RELEASE
+from trebuchet.model.settings import (
+    DEFAULT_AFTER_RELEASE,
+    DEFAULT_RTOL,
+    accuracy_option,
+    output_step,
+)
+from trebuchet.model.units import UNITS_HELP
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate", help="simulate a shot and write every force to CSV",
                        description="Simulate a shot of SCENE and write the contract's columns.")
     p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--units", action="store_true", help=UNITS_HELP)
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--dt", type=output_step, default=1e-3,
-                   help="output step in s, up to 0.1 (default 0.001)")
+                   help="output step in s, 1e-6 to 0.1, at most 1,000,000 rows "
+                   "(default 0.001)")
     p.add_argument("--accuracy", "--rtol", dest="accuracy", default="default", type=accuracy_option,
                    help="fast, default, precise, or a relative tolerance such as 1e-8 "
                    f"(default: {DEFAULT_RTOL:g})")
     p.add_argument("--after-release", type=float, default=DEFAULT_AFTER_RELEASE,
-                   help=f"s of phase III to simulate (default {DEFAULT_AFTER_RELEASE:g})")
+                   help=f"s of phase III to simulate, 0 to {MAX_AFTER_RELEASE:g} "
+                   f"(default {DEFAULT_AFTER_RELEASE:g})")
     p.set_defaults(run=_simulate)
 
     p = sub.add_parser("paper", help="compare the model with every number the paper quotes",
@@ -37,10 +47,17 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _simulate(args: argparse.Namespace) -> int:
-    check_target(args.output)
+    from trebuchet.csv_table import write_table
+    from trebuchet.model.scene import Scene
+    from trebuchet.model.simulate import simulate
+    from trebuchet.model.units import column_units
+    from trebuchet.output import check_target
+
+    check_target(args.output, inputs=[args.scene])
     scene = Scene.from_toml(args.scene)
     run = simulate(scene, rtol=args.accuracy, after_release=args.after_release, dt=args.dt)
-    write_csv(run, args.output)
+    write_table(run, args.output, inputs=[args.scene],
+                units=column_units(list(run.columns)) if args.units else None)
     print(simulation_summary(run) + f"; {len(run)} rows -> {args.output}")
     return 0
 
@@ -74,8 +91,13 @@ def format_paper_table(table, markdown: bool = False) -> str:
 
 @cli_command
 def _paper(args: argparse.Namespace) -> int:
+    from trebuchet.csv_table import write_table
+    from trebuchet.model.paper import horsdal_scene_path, paper_comparison
+    from trebuchet.model.scene import Scene
+    from trebuchet.output import check_target
+
     if args.output:
-        check_target(args.output)
+        check_target(args.output, inputs=[args.scene])
     scene = Scene.from_toml(args.scene) if args.scene else None
     table = paper_comparison(scene)
     if scene is not None and scene.engine != Scene.from_toml(horsdal_scene_path()).engine:
@@ -83,5 +105,5 @@ def _paper(args: argparse.Namespace) -> int:
               "numbers are set beside the paper's all the same", file=sys.stderr)
     print(format_paper_table(table, markdown=args.markdown))
     if args.output:
-        write_csv(table, args.output)
+        write_table(table, args.output, inputs=[args.scene])
     return 0

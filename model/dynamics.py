@@ -16,8 +16,14 @@ integrator) and on numpy arrays (``lib=numpy``, the default, for outputs), and
 compiles unchanged with numba (:mod:`trebuchet.model.shot_kernel`); ``e`` is an
 :class:`~trebuchet.model.scene.Engine` or anything with its attributes.
 
+Friction in the bearings (:mod:`trebuchet.model.friction`) enters as the generalised forces
+``Q_θ``, ``Q_ψ`` of its couples; the couples follow the loads on the bearings, which follow
+the accelerations, so :func:`friction_forces` solves for them (Newton's method on the two
+load magnitudes; the accelerations are affine in the couples). An engine without friction
+takes none of that path: its numbers are those of the frictionless equations, bit for bit.
+
 Angles in rad, rates in rad/s, accelerations in rad/s², lengths in m, masses in
-kg, ``g`` in m/s².
+kg, ``g`` in m/s², generalised forces in N m.
 """
 
 from __future__ import annotations
@@ -27,6 +33,14 @@ from typing import Any
 
 import numpy as np
 
+from trebuchet.model.forces import joint_forces_xy
+from trebuchet.model.friction import (
+    friction_couples,
+    friction_generalised_forces,
+    has_friction,
+    loss_powers,
+)
+from trebuchet.model.kinematics import trough_f_g, trough_phi_d, trough_phi_dd, trough_sling_angle
 from trebuchet.model.scene import Engine
 
 __all__ = [
@@ -35,6 +49,15 @@ __all__ = [
     "beam_and_counterweight",
     "trough_phi_d",
     "trough_phi_dd",
+    "phase_accelerations",
+    "friction_forces",
+    "friction_pieces",
+    "friction_newton_step",
+    "friction_start",
+    "friction_result",
+    "phase_motion",
+    "motion_under",
+    "state_derivative_under",
     "accelerations_phase1",
     "accelerations_phase2",
     "accelerations_phase3",
@@ -44,41 +67,15 @@ __all__ = [
     "state_rates_phase2",
     "state_rates_phase3",
     "phase_state",
+    "state_derivative",
+    "energy_scale",
+    "FRICTION_NEWTON_STEPS",
 ]
 
 
-def trough_sling_angle(theta: Any, e: Engine, H: float, lib: ModuleType = np) -> Any:
-    """Sling angle φ in the trough from the constraint ``H + L1 sin θ + L4 sin φ = 0``
-    (paper, eq. for phase I), on the branch under the beam (cos φ < 0), rad."""
-    return -lib.pi + lib.asin((H + e.L1 * lib.sin(theta)) / e.L4)
-
-
-def trough_f_g(theta: Any, phi: Any, e: Engine, lib: ModuleType = np) -> tuple[Any, Any]:
-    """The paper's ``f(θ)`` and ``g(θ)`` of phase I (dimensionless):
-    ``a_m = L1 (f θ̈ + g θ̇²) e_x``."""
-    cos_phi = lib.cos(phi)
-    f = -lib.sin(theta - phi) / cos_phi
-    c = lib.cos(theta)
-    g = -(e.L1 / e.L4) * c * c / (cos_phi * cos_phi * cos_phi) - lib.cos(theta - phi) / cos_phi
-    return f, g
-
-
-def trough_phi_d(theta: Any, phi: Any, theta_d: Any, e: Engine, lib: ModuleType = np) -> Any:
-    """φ̇ in the trough from ``L1 cos θ θ̇ + L4 cos φ φ̇ = 0``, rad/s."""
-    return -e.L1 * lib.cos(theta) * theta_d / (e.L4 * lib.cos(phi))
-
-
-def trough_phi_dd(theta: Any, phi: Any, theta_d: Any, phi_d: Any, theta_dd: Any, e: Engine,
-                  lib: ModuleType = np) -> Any:
-    """φ̈ in the trough, the time derivative of the velocity constraint, rad/s²."""
-    return (e.L4 * lib.sin(phi) * phi_d * phi_d
-            - e.L1 * (lib.cos(theta) * theta_dd - lib.sin(theta) * theta_d * theta_d)) / (
-        e.L4 * lib.cos(phi))
-
-
 def beam_and_counterweight(theta: Any, psi: Any, theta_d: Any, psi_d: Any, q_proj: Any,
-                           i_proj: Any, e: Engine, g: float,
-                           lib: ModuleType = np) -> tuple[Any, Any]:
+                           i_proj: Any, e: Engine, g: float, lib: ModuleType = np,
+                           Q_th: Any = 0.0, Q_ps: Any = 0.0) -> tuple[Any, Any]:
     """θ̈ and ψ̈ (rad/s²) given the projectile's share of the beam's equation.
 
     ``θ̈ = Σ Q / Σ I`` over the beam (gravity on its centre of mass, inertia I), the
@@ -90,21 +87,29 @@ def beam_and_counterweight(theta: Any, psi: Any, theta_d: Any, psi_d: Any, q_pro
     counterweight fixed to the beam at ``ψ = θ + offset`` adds gravity's torque
     ``M g (L2 cos θ − L3 cos ψ)`` and ``M ρ²``, ``ρ² = L2² + L3² − 2 L2 L3 cos(offset)``, and
     turns with the beam (ψ̈ = θ̈).
+
+    ``Q_th``, ``Q_ps`` (N m): generalised forces of friction couples on θ and ψ. The
+    counterweight's equation then reads ``M L3² ψ̈ = M L3 (L2 (cos(θ−ψ) θ̈ − sin(θ−ψ) θ̇²) −
+    g cos ψ) + Q_ψ``, and eliminating it adds ``Q_θ + (L2 cos(θ−ψ)/L3) Q_ψ`` to the beam's
+    ``Σ Q`` (derived with sympy in tests/test_friction_derivation.py). A fixed counterweight
+    turns with the beam: ``Q_θ + Q_ψ``.
     """
     cos_th = lib.cos(theta)
     q = q_proj - e.m_b * e.L_CM * g * cos_th
     i = i_proj + e.I
     if e.fixed_counterweight:
         rho2 = e.L2 * e.L2 + e.L3 * e.L3 - 2.0 * e.L2 * e.L3 * lib.cos(e.counterweight_offset)
-        theta_dd = (q + e.M * g * (e.L2 * cos_th - e.L3 * lib.cos(psi))) / (i + e.M * rho2)
+        theta_dd = (q + e.M * g * (e.L2 * cos_th - e.L3 * lib.cos(psi)) + Q_th + Q_ps) / (
+            i + e.M * rho2)
         return theta_dd, theta_dd
     s, c = lib.sin(theta - psi), lib.cos(theta - psi)
     cos_ps = lib.cos(psi)
     w2 = theta_d * theta_d
     q = q + e.M * e.L2 * (e.L3 * psi_d * psi_d * s - c * (e.L2 * w2 * s + g * cos_ps)
                           + g * cos_th)
-    theta_dd = q / (i + e.M * e.L2 * e.L2 * s * s)
-    return theta_dd, counterweight_pendulum_psi_dd(theta, theta_d, theta_dd, psi, e, g, lib)
+    theta_dd = (q + Q_th + (e.L2 * c / e.L3) * Q_ps) / (i + e.M * e.L2 * e.L2 * s * s)
+    return theta_dd, (counterweight_pendulum_psi_dd(theta, theta_d, theta_dd, psi, e, g, lib)
+                      + Q_ps / (e.M * e.L3 * e.L3))
 
 
 def counterweight_pendulum_psi_dd(theta: Any, theta_d: Any, theta_dd: Any, psi: Any, e: Engine,
@@ -117,11 +122,13 @@ def counterweight_pendulum_psi_dd(theta: Any, theta_d: Any, theta_dd: Any, psi: 
 
 
 def accelerations_phase1(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
-                         H: float, lib: ModuleType = np) -> tuple[Any, Any, Any, Any, Any]:
+                         H: float, lib: ModuleType = np, Q_th: Any = 0.0,
+                         Q_ps: Any = 0.0) -> tuple[Any, Any, Any, Any, Any]:
     """Phase I (projectile dragged in the trough): returns φ, φ̇, θ̈, ψ̈, φ̈.
 
     The paper's eq. (A.1): the projectile's share is ``I = m L1² f²`` and
-    ``Q = −m L1² f g θ̇²``; φ follows θ on the trough constraint.
+    ``Q = −m L1² f g θ̇²``; φ follows θ on the trough constraint. ``Q_th``, ``Q_ps``: friction's
+    generalised forces (N m, :func:`beam_and_counterweight`).
     """
     phi = trough_sling_angle(theta, e, H, lib)
     phi_d = trough_phi_d(theta, phi, theta_d, e, lib)
@@ -129,19 +136,21 @@ def accelerations_phase1(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engi
     mL1L1 = e.m * e.L1 * e.L1
     theta_dd, psi_dd = beam_and_counterweight(theta, psi, theta_d, psi_d,
                                               -mL1L1 * f * gg * theta_d * theta_d, mL1L1 * f * f,
-                                              e, g, lib)
+                                              e, g, lib, Q_th, Q_ps)
     phi_dd = trough_phi_dd(theta, phi, theta_d, phi_d, theta_dd, e, lib)
     return phi, phi_d, theta_dd, psi_dd, phi_dd
 
 
 def accelerations_phase2(theta: Any, psi: Any, phi: Any, theta_d: Any, psi_d: Any, phi_d: Any,
-                         e: Engine, g: float, lib: ModuleType = np) -> tuple[Any, Any, Any]:
+                         e: Engine, g: float, lib: ModuleType = np, Q_th: Any = 0.0,
+                         Q_ps: Any = 0.0) -> tuple[Any, Any, Any]:
     """Phase II (projectile in the sling): returns θ̈, ψ̈, φ̈ from the three Lagrange equations.
 
     The sling's equation eliminated, the projectile adds ``Q = −m L1 (L4 φ̇² sin(θ−φ) +
     g cos θ + cos(θ−φ)(L1 θ̇² sin(θ−φ) − g cos φ))`` and ``I = m L1² sin²(θ−φ)``, and swings
     as a pendulum of length L4 hung from the spigot,
-    ``φ̈ = (L1 (sin(θ−φ) θ̇² − cos(θ−φ) θ̈) − g cos φ)/L4``.
+    ``φ̈ = (L1 (sin(θ−φ) θ̇² − cos(θ−φ) θ̈) − g cos φ)/L4``. ``Q_th``, ``Q_ps``: friction's
+    generalised forces (N m).
     """
     s, c = lib.sin(theta - phi), lib.cos(theta - phi)
     cos_ph = lib.cos(phi)
@@ -149,7 +158,7 @@ def accelerations_phase2(theta: Any, psi: Any, phi: Any, theta_d: Any, psi_d: An
     q_p = -e.m * e.L1 * (e.L4 * phi_d * phi_d * s + g * lib.cos(theta)
                          + c * (e.L1 * w2 * s - g * cos_ph))
     theta_dd, psi_dd = beam_and_counterweight(theta, psi, theta_d, psi_d, q_p,
-                                              e.m * e.L1 * e.L1 * s * s, e, g, lib)
+                                              e.m * e.L1 * e.L1 * s * s, e, g, lib, Q_th, Q_ps)
     phi_dd = sling_pendulum_phi_dd(theta, theta_d, theta_dd, phi, e, g, lib)
     return theta_dd, psi_dd, phi_dd
 
@@ -164,47 +173,217 @@ def sling_pendulum_phi_dd(theta: Any, theta_d: Any, theta_dd: Any, phi: Any, e: 
 
 
 def accelerations_phase3(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
-                         lib: ModuleType = np) -> tuple[Any, Any]:
-    """Phase III (projectile released, or a dry fire): θ̈, ψ̈ of beam and counterweight alone."""
-    return beam_and_counterweight(theta, psi, theta_d, psi_d, 0.0, 0.0, e, g, lib)
+                         lib: ModuleType = np, Q_th: Any = 0.0,
+                         Q_ps: Any = 0.0) -> tuple[Any, Any]:
+    """Phase III (projectile released, or a dry fire): θ̈, ψ̈ of beam and counterweight alone
+    (``Q_th``, ``Q_ps``: friction's generalised forces, N m)."""
+    return beam_and_counterweight(theta, psi, theta_d, psi_d, 0.0, 0.0, e, g, lib, Q_th, Q_ps)
+
+
+
+
+def phase_accelerations(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
+                        e: Engine, g: float, H: float, lib: ModuleType = np, Q_th: Any = 0.0,
+                        Q_ps: Any = 0.0) -> tuple[Any, Any, Any, Any, Any]:
+    """φ, φ̇ (rad, rad/s), θ̈, ψ̈, φ̈ (rad/s²) of phase ``kind`` under friction's generalised
+    forces ``Q_th``, ``Q_ps`` (N m): in the trough φ and φ̇ follow θ (the ones given are not
+    used), in the sling they are the ones given, after release they are NaN."""
+    if kind == 1:
+        return accelerations_phase1(th, ps, th_d, ps_d, e, g, H, lib, Q_th, Q_ps)
+    if kind == 2:
+        th_dd, ps_dd, ph_dd = accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, lib, Q_th,
+                                                   Q_ps)
+        return ph, ph_d, th_dd, ps_dd, ph_dd
+    th_dd, ps_dd = accelerations_phase3(th, ps, th_d, ps_d, e, g, lib, Q_th, Q_ps)
+    nan = th * lib.nan
+    return nan, nan, th_dd, ps_dd, nan
+
+
+def _unit_response(kind: int, th: Any, ps: Any, ph: Any, e: Engine, H: float, lib: ModuleType,
+                   Q_th: float, Q_ps: float) -> tuple[tuple[Any, Any], tuple[Any, Any]]:
+    """F_R and F_H (N) that generalised forces ``Q_th``, ``Q_ps`` (N m) alone cause in the pose
+    ``th, ps, ph``: the engine at rest without gravity, so only the mass matrix answers.
+    Loads are affine in the accelerations and these in Q, so this is their slope."""
+    z = 0.0 * th
+    ph0, ph_d0, th_dd, ps_dd, ph_dd = phase_accelerations(kind, th, ps, ph, z, z, z, e, 0.0, H,
+                                                          lib, Q_th, Q_ps)
+    return joint_forces_xy(kind, th, z, th_dd, ps, z, ps_dd, ph0, ph_d0, ph_dd, e, 0.0, lib)
+
+
+#: Newton steps of :func:`friction_forces` (the third is below round-off for couples of up to
+#: a tenth of what the bearings' loads could turn; tests/test_friction.py measures it).
+FRICTION_NEWTON_STEPS = 3
+
+
+def friction_pieces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
+                    e: Engine, g: float, H: float, lib: ModuleType = np) -> tuple:
+    """What the couples of the bearings' friction depend on, in phase ``kind`` at the given
+    angles (rad) and rates (rad/s): ``a_P = μ_P r_P s(θ̇)``, ``a_H = μ_H r_H s(ψ̇ − θ̇)`` (m),
+    the frictionless loads ``F_R₀``, ``F_H₀`` (N) and their slopes in the load magnitudes
+    ``n = (|F_R|, |F_H|)``: ``∂F_R/∂n_R``, ``∂F_R/∂n_H``, ``∂F_H/∂n_R``, ``∂F_H/∂n_H``
+    (dimensionless), 14 numbers in that order. Loads are affine in the accelerations and
+    these in the couples' generalised forces ``Q_θ = −a_P n_R + a_H n_H``, ``Q_ψ = −a_H n_H``,
+    so ``F(n) = F₀ + n_R ∂F/∂n_R + n_H ∂F/∂n_H`` exactly; the slopes come from
+    :func:`_unit_response`."""
+    a_P, a_H = friction_couples(1.0, 1.0, th_d, ps_d, e, lib)
+    ph0, ph_d0, th_dd, ps_dd, ph_dd = phase_accelerations(kind, th, ps, ph, th_d, ps_d, ph_d, e,
+                                                          g, H, lib)
+    R0, H0 = joint_forces_xy(kind, th, th_d, th_dd, ps, ps_d, ps_dd, ph0, ph_d0, ph_dd, e, g,
+                             lib)
+    Rt, Ht = _unit_response(kind, th, ps, ph, e, H, lib, 1.0, 0.0)
+    Rp, Hp = _unit_response(kind, th, ps, ph, e, H, lib, 0.0, 1.0)
+    # ∂F/∂n_R = −a_P ∂F/∂Q_θ;  ∂F/∂n_H = a_H (∂F/∂Q_θ − ∂F/∂Q_ψ)
+    return (a_P, a_H, R0[0], R0[1], H0[0], H0[1],
+            -a_P * Rt[0], -a_P * Rt[1], a_H * (Rt[0] - Rp[0]), a_H * (Rt[1] - Rp[1]),
+            -a_P * Ht[0], -a_P * Ht[1], a_H * (Ht[0] - Hp[0]), a_H * (Ht[1] - Hp[1]))
+
+
+def friction_newton_step(p: tuple, n_R: Any, n_H: Any, lib: ModuleType = np
+                         ) -> tuple[Any, Any]:
+    """One Newton step on ``n = (|F_R(n)|, |F_H(n)|)`` (N) with the pieces ``p`` of
+    :func:`friction_pieces`: residual ``f = (|F_R(n)| − n_R, |F_H(n)| − n_H)``, Jacobian
+    ``∂|F|/∂n = F̂·∂F/∂n − I``."""
+    Rx, Ry = p[2] + p[6] * n_R + p[8] * n_H, p[3] + p[7] * n_R + p[9] * n_H
+    Hx, Hy = p[4] + p[10] * n_R + p[12] * n_H, p[5] + p[11] * n_R + p[13] * n_H
+    abs_R, abs_H = lib.sqrt(Rx * Rx + Ry * Ry), lib.sqrt(Hx * Hx + Hy * Hy)
+    f_R, f_H = abs_R - n_R, abs_H - n_H
+    J11 = (Rx * p[6] + Ry * p[7]) / abs_R - 1.0
+    J12 = (Rx * p[8] + Ry * p[9]) / abs_R
+    J21 = (Hx * p[10] + Hy * p[11]) / abs_H
+    J22 = (Hx * p[12] + Hy * p[13]) / abs_H - 1.0
+    det = J11 * J22 - J12 * J21
+    return n_R - (f_R * J22 - f_H * J12) / det, n_H - (J11 * f_H - J21 * f_R) / det
+
+
+def friction_forces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
+                    e: Engine, g: float, H: float, lib: ModuleType = np
+                    ) -> tuple[Any, Any, Any, Any]:
+    """``Q_θ``, ``Q_ψ`` (generalised forces) and ``τ_P``, ``τ_H`` (the couples), N m, of the
+    bearings' friction in phase ``kind`` at the given angles and rates.
+
+    The couples are ``τ_P = a_P |F_R|``, ``τ_H = a_H |F_H|``, and the loads follow the
+    accelerations the couples cause: ``n = (|F_R(n)|, |F_H(n)|)`` is solved by
+    :data:`FRICTION_NEWTON_STEPS` steps of Newton's method (:func:`friction_newton_step`)
+    from the frictionless magnitudes, on the exact affine loads of :func:`friction_pieces`.
+    No branch depends on the values: the same code runs on floats and arrays, and the FMU's
+    C runs the same steps on functions generated from these."""
+    p = friction_pieces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
+    n_R, n_H = friction_start(p, lib)
+    for _ in range(FRICTION_NEWTON_STEPS):
+        n_R, n_H = friction_newton_step(p, n_R, n_H, lib)
+    return friction_result(p, n_R, n_H)
+
+
+def friction_start(p: tuple, lib: ModuleType = np) -> tuple[Any, Any]:
+    """Newton's start: the frictionless load magnitudes ``|F_R₀|``, ``|F_H₀|`` (N) of the
+    pieces ``p`` of :func:`friction_pieces`."""
+    return lib.sqrt(p[2] * p[2] + p[3] * p[3]), lib.sqrt(p[4] * p[4] + p[5] * p[5])
+
+
+def friction_result(p: tuple, n_R: Any, n_H: Any) -> tuple[Any, Any, Any, Any]:
+    """``Q_θ``, ``Q_ψ``, ``τ_P``, ``τ_H`` (N m) of the load magnitudes ``n_R``, ``n_H`` (N):
+    ``τ_P = a_P n_R``, ``τ_H = a_H n_H`` with ``a_P``, ``a_H`` the first two pieces."""
+    tau_P, tau_H = p[0] * n_R, p[1] * n_H
+    Q_th, Q_ps = friction_generalised_forces(tau_P, tau_H)
+    return Q_th, Q_ps, tau_P, tau_H
+
+
+def _state_angles(kind: int, y: Any, lib: ModuleType) -> tuple[Any, Any, Any, Any, Any, Any]:
+    """θ, ψ, φ, θ̇, ψ̇, φ̇ from the state of phase ``kind`` (φ, φ̇ NaN where the state holds
+    none: the trough's follow from θ)."""
+    if kind == 2:
+        return y[0], y[1], y[2], y[3], y[4], y[5]
+    nan = y[0] * lib.nan
+    return y[0], y[1], nan, y[2], y[3], nan
+
+
+def energy_scale(e: Engine, g: float) -> float:
+    """``(M L2 − m_b L_CM) g``, J: the engine's scale of energy and of torque (N m), the unit in
+    which the integrators carry the friction's lost energy."""
+    return (e.M * e.L2 - e.m_b * e.L_CM) * g
+
+
+def phase_motion(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleType = np
+                 ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any, Any, Any]:
+    """θ, ψ, φ (rad), θ̇, ψ̇, φ̇ (rad/s), θ̈, ψ̈, φ̈ (rad/s²) and the loss powers of pivot and
+    hinge ``P_P``, ``P_H`` (W, :func:`~trebuchet.model.friction.loss_powers`) from the state
+    ``y`` of phase ``kind`` (I: ``(θ, ψ, θ̇, ψ̇)`` with φ from the trough; II: ``(θ, ψ, φ, θ̇,
+    ψ̇, φ̇)``; III: ``(θ, ψ, θ̇, ψ̇)``, φ and its derivatives NaN; anything after those, such
+    as the integrators' lost energies, is ignored): the one dispatch from a phase to its
+    accelerations, with the bearings' friction (:func:`friction_forces`) where the engine has
+    it, for floats (compiled) and arrays alike."""
+    Q_th = Q_ps = 0.0
+    if has_friction(e):
+        th, ps, ph, th_d, ps_d, ph_d = _state_angles(kind, y, lib)
+        Q_th, Q_ps, _, _ = friction_forces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
+    return motion_under(kind, y, e, g, H, Q_th, Q_ps, lib)
+
+
+def motion_under(kind: int, y: Any, e: Engine, g: float, H: float, Q_th: Any, Q_ps: Any,
+                 lib: ModuleType = np
+                 ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any, Any, Any]:
+    """:func:`phase_motion` under given generalised forces of friction ``Q_th``, ``Q_ps`` (N m):
+    the couples are ``τ_H = −Q_ψ``, ``τ_P = −Q_θ − Q_ψ`` and the loss powers ``τ_P θ̇``,
+    ``τ_H (ψ̇ − θ̇)``."""
+    th, ps, ph, th_d, ps_d, ph_d = _state_angles(kind, y, lib)
+    ph, ph_d, th_dd, ps_dd, ph_dd = phase_accelerations(kind, th, ps, ph, th_d, ps_d, ph_d, e, g,
+                                                        H, lib, Q_th, Q_ps)
+    tau_H = -Q_ps
+    P_P, P_H = loss_powers(tau_H - Q_th, tau_H, th_d, ps_d)
+    return th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd, P_P, P_H
+
+
+def phase_state(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleType = np
+                ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any]:
+    """θ, ψ, φ (rad), θ̇, ψ̇, φ̇ (rad/s), θ̈, ψ̈, φ̈ (rad/s²) from the state ``y`` of phase
+    ``kind``: the first nine of :func:`phase_motion`."""
+    m = phase_motion(kind, y, e, g, H, lib)
+    return m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]
 
 
 def state_rates_phase1(y: Any, e: Engine, g: float, H: float,
                        lib: ModuleType = np) -> tuple[Any, Any, Any, Any]:
     """Time derivative of the phase-I state ``y = (θ, ψ, θ̇, ψ̇)``: ``(θ̇, ψ̇, θ̈, ψ̈)``."""
-    _, _, th_dd, ps_dd, _ = accelerations_phase1(y[0], y[1], y[2], y[3], e, g, H, lib)
-    return y[2], y[3], th_dd, ps_dd
+    m = phase_motion(1, y, e, g, H, lib)
+    return y[2], y[3], m[6], m[7]
 
 
 def state_rates_phase2(y: Any, e: Engine, g: float,
                        lib: ModuleType = np) -> tuple[Any, Any, Any, Any, Any, Any]:
     """Time derivative of the phase-II state ``y = (θ, ψ, φ, θ̇, ψ̇, φ̇)``:
     ``(θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈)``."""
-    th_dd, ps_dd, ph_dd = accelerations_phase2(y[0], y[1], y[2], y[3], y[4], y[5], e, g, lib)
-    return y[3], y[4], y[5], th_dd, ps_dd, ph_dd
+    m = phase_motion(2, y, e, g, 0.0, lib)
+    return y[3], y[4], y[5], m[6], m[7], m[8]
 
 
 def state_rates_phase3(y: Any, e: Engine, g: float,
                        lib: ModuleType = np) -> tuple[Any, Any, Any, Any]:
     """Time derivative of the phase-III state ``y = (θ, ψ, θ̇, ψ̇)``: ``(θ̇, ψ̇, θ̈, ψ̈)``."""
-    th_dd, ps_dd = accelerations_phase3(y[0], y[1], y[2], y[3], e, g, lib)
-    return y[2], y[3], th_dd, ps_dd
+    m = phase_motion(3, y, e, g, 0.0, lib)
+    return y[2], y[3], m[6], m[7]
 
 
-def phase_state(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleType = np
-                ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any]:
-    """θ, ψ, φ (rad), θ̇, ψ̇, φ̇ (rad/s), θ̈, ψ̈, φ̈ (rad/s²) from the state ``y`` of phase
-    ``kind`` (I: ``(θ, ψ, θ̇, ψ̇)`` with φ from the trough; II: ``(θ, ψ, φ, θ̇, ψ̇, φ̇)``;
-    III: ``(θ, ψ, θ̇, ψ̇)``, φ and its derivatives NaN): the one dispatch from a phase to its
-    accelerations, for floats (compiled) and arrays alike."""
-    if kind == 1:
-        th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
-        ph, ph_d, th_dd, ps_dd, ph_dd = accelerations_phase1(th, ps, th_d, ps_d, e, g, H, lib)
-    elif kind == 2:
-        th, ps, ph, th_d, ps_d, ph_d = y[0], y[1], y[2], y[3], y[4], y[5]
-        th_dd, ps_dd, ph_dd = accelerations_phase2(th, ps, ph, th_d, ps_d, ph_d, e, g, lib)
-    else:
-        th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
-        th_dd, ps_dd = accelerations_phase3(th, ps, th_d, ps_d, e, g, lib)
-        ph = ph_d = ph_dd = th * lib.nan
-    return th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd
+def state_derivative(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleType = np
+                     ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any]:
+    """Time derivative of the state ``y`` of phase ``kind`` as the integrators carry it, padded
+    to eight entries: phase II ``(θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈, ė_P, ė_H)``, phases I and III ``(θ̇, ψ̇,
+    θ̈, ψ̈, ė_P, ė_H, 0, 0)``; the first ``len(y)`` are the state's. ``e_P``, ``e_H`` are the
+    energies lost at pivot and hinge in units of :func:`energy_scale` (states only where the
+    engine has friction: ``ė = P_loss / scale``)."""
+    return _derivative(kind, y, phase_motion(kind, y, e, g, H, lib), e, g)
+
+
+def state_derivative_under(kind: int, y: Any, e: Engine, g: float, H: float, Q_th: Any,
+                           Q_ps: Any, lib: ModuleType = np
+                           ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any]:
+    """:func:`state_derivative` under given generalised forces of friction (N m)."""
+    return _derivative(kind, y, motion_under(kind, y, e, g, H, Q_th, Q_ps, lib), e, g)
+
+
+def _derivative(kind: int, y: Any, m: tuple, e: Engine, g: float) -> tuple:
+    scale = energy_scale(e, g)
+    loss_P, loss_H = m[9] / scale, m[10] / scale
+    if kind == 2:
+        return y[3], y[4], y[5], m[6], m[7], m[8], loss_P, loss_H
+    zero = 0.0 * m[6]
+    return y[2], y[3], m[6], m[7], loss_P, loss_H, zero, zero

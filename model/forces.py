@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 
 from trebuchet.model import kinematics as kin
-from trebuchet.model.dynamics import trough_f_g
-from trebuchet.model.kinematics import Angle
+from trebuchet.model.friction import friction_couples, friction_generalised_forces, loss_powers
+from trebuchet.model.kinematics import Angle, trough_f_g
 from trebuchet.model.scene import Engine, Scene
 
 __all__ = [
@@ -47,17 +47,14 @@ __all__ = [
     "projectile_energy",
     "energies",
     "energies_xy",
+    "joint_forces_xy",
+    "hinge_force_with_pin_friction_xy",
     "row_loads",
     "LOAD_COLUMNS",
     "ROW_COLUMNS",
+    "FRICTION_COLUMNS",
 ]
 
-#: The formulas compiled code calls, besides :func:`row_loads` itself.
-COMPONENT_FUNCTIONS = ("centre_of_mass_force_xy", "hinge_force_xy", "hinge_force_along_arm_xy",
-                       "sling_force_in_sling_xy", "sling_force_along_sling_xy",
-                       "sling_force_in_trough_xy", "pivot_reaction_xy",
-                       "torque_contributions_xy", "trough_normal_force", "projectile_energy",
-                       "energies_xy", "_along", "_across")
 
 #: The input columns of :func:`loads`: each angle, its rate and its acceleration.
 ANGLE_COLUMNS = (("theta", "theta_d", "theta_dd"), ("psi", "psi_d", "psi_dd"),
@@ -73,7 +70,11 @@ ROW_COLUMNS = (*LOAD_COLUMNS, "F_N", "F_M_x", "F_M_y", "F_m_x", "F_m_y", "sling_
                "torque_hinge", "torque_cm", "torque_spigot",
                "F_S_par", "F_S_perp", "F_H_par", "F_H_perp", "F_CM_par", "F_CM_perp",
                "F_R_par", "F_R_perp",
-               "F_S_abs", "F_H_abs", "F_CM_abs", "F_R_abs", "F_M_abs", "F_m_abs")
+               "F_S_abs", "F_H_abs", "F_CM_abs", "F_R_abs", "F_M_abs", "F_m_abs",
+               "torque_friction", "P_loss_pivot", "P_loss_hinge")
+
+#: The columns of :data:`ROW_COLUMNS` that only an engine with friction has (zero without).
+FRICTION_COLUMNS = ("torque_friction", "P_loss_pivot", "P_loss_hinge")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -113,6 +114,22 @@ def hinge_force_along_arm_xy(RA_th: Any, cos_ps: Any, sin_ps: Any, psi_d: Any, e
     return along * cos_ps, along * sin_ps
 
 
+def hinge_force_with_pin_friction_xy(RA_th: Any, cos_ps: Any, sin_ps: Any, theta_d: Any,
+                                     psi_d: Any, e: Engine, g: float,
+                                     lib: Any = np) -> tuple[Any, Any]:
+    """F_H, N, free of ψ̈ where the hinge pin has friction: the arm is massless, so the pin's
+    couple ``−τ_H`` on it balances the moment of F_H about the hinge, ``L3 F_H·e_ψ⊥ = −τ_H``
+    with ``τ_H = μ_H r_H |F_H| s(ψ̇ − θ̇)``. With ``k = μ_H r_H s(ψ̇ − θ̇)/L3`` and the
+    component along the arm ``F_∥`` of :func:`hinge_force_along_arm_xy`:
+    ``|F_H| = |F_∥| / √(1 − k²)`` and ``F_H·e_ψ⊥ = −k |F_H|``. Equal to eq. (11) on an exact
+    motion (a test says so)."""
+    k = friction_couples(0.0, 1.0, theta_d, psi_d, e, lib)[1] / e.L3
+    F_par = hinge_force_along_arm_xy(RA_th, cos_ps, sin_ps, psi_d, e, g)
+    along = _along(F_par, cos_ps, sin_ps)
+    across = -k * lib.sqrt(along * along / (1.0 - k * k))
+    return F_par[0] - across * sin_ps, F_par[1] + across * cos_ps
+
+
 def sling_force_in_sling_xy(RA_th: Any, RA_ph: Any, e: Engine, g: float) -> tuple[Any, Any]:
     """``F_S = m L1 R_θ A_θ + m L4 R_φ A_φ + m g e_y`` (paper, eq. (13)), N: sling tension on the
     projectile in phase II."""
@@ -146,6 +163,27 @@ def trough_normal_force(F_S_y: Any, e: Engine, g: float) -> Any:
 def pivot_reaction_xy(F_H: Any, F_CM: Any, F_S: Any) -> tuple[Any, Any]:
     """``F_R = F_H + F_CM + F_S`` (paper, eq. (14)), N: bearing reaction on the beam at P."""
     return F_H[0] + F_CM[0] + F_S[0], F_H[1] + F_CM[1] + F_S[1]
+
+
+def joint_forces_xy(phase: int, th: Any, th_d: Any, th_dd: Any, ps: Any, ps_d: Any,
+                    ps_dd: Any, ph: Any, ph_d: Any, ph_dd: Any, e: Engine, g: float,
+                    lib: Any = math) -> tuple[tuple[Any, Any], tuple[Any, Any]]:
+    """The bearing reaction F_R (eq. (14)) and the hinge force F_H (eq. (11)), N, in their
+    direct forms, from the angles (rad), rates (rad/s) and accelerations (rad/s²) of
+    ``phase`` (the sling's F_S of eq. (16) in the trough, (13) in the sling, none after
+    release): the loads on the bearings, which friction follows."""
+    c_th, s_th = lib.cos(th), lib.sin(th)
+    RA_th = kin.rotated_acceleration_xy(c_th, s_th, th_d, th_dd)
+    F_H = hinge_force_xy(RA_th, kin.rotated_acceleration_xy(lib.cos(ps), lib.sin(ps), ps_d,
+                                                            ps_dd), e, g)
+    if phase == 1:
+        F_S = sling_force_in_trough_xy(th, th_d, th_dd, ph, e, lib)
+    elif phase == 2:
+        F_S = sling_force_in_sling_xy(RA_th, kin.rotated_acceleration_xy(
+            lib.cos(ph), lib.sin(ph), ph_d, ph_dd), e, g)
+    else:
+        F_S = (0.0 * th, 0.0 * th)
+    return pivot_reaction_xy(F_H, centre_of_mass_force_xy(RA_th, e, g), F_S), F_H
 
 
 def torque_contributions_xy(cos_th: Any, sin_th: Any, cos_ps: Any, sin_ps: Any, F_H: Any,
@@ -264,7 +302,9 @@ def row_loads(phase: int, th: float, th_d: float, th_dd: float, ps: float, ps_d:
     c_ph, s_ph = math.cos(ph), math.sin(ph)
     RA_th = kin.rotated_acceleration_xy(c_th, s_th, th_d, th_dd)
     F_CM = centre_of_mass_force_xy(RA_th, e, g)
-    if projected and not e.fixed_counterweight:
+    if projected and not e.fixed_counterweight and e.hinge_friction != 0.0:
+        F_H = hinge_force_with_pin_friction_xy(RA_th, c_ps, s_ps, th_d, ps_d, e, g, math)
+    elif projected and not e.fixed_counterweight:
         F_H = hinge_force_along_arm_xy(RA_th, c_ps, s_ps, ps_d, e, g)
     else:
         F_H = hinge_force_xy(RA_th, kin.rotated_acceleration_xy(c_ps, s_ps, ps_d, ps_dd), e, g)
@@ -280,8 +320,16 @@ def row_loads(phase: int, th: float, th_d: float, th_dd: float, ps: float, ps_d:
     else:
         F_S = (0.0, 0.0)
     F_R = pivot_reaction_xy(F_H, F_CM, F_S)
+    F_R_abs = math.sqrt(F_R[0] * F_R[0] + F_R[1] * F_R[1])
+    F_H_abs = math.sqrt(F_H[0] * F_H[0] + F_H[1] * F_H[1])
     t_hinge, t_cm, t_spigot = torque_contributions_xy(c_th, s_th, c_ps, s_ps, F_H, F_S, e, g)
     torque = t_hinge + t_cm + t_spigot
+    t_friction = P_pivot = P_hinge = 0.0
+    if e.pivot_friction != 0.0 or e.hinge_friction != 0.0:
+        tau_P, tau_H = friction_couples(F_R_abs, F_H_abs, th_d, ps_d, e, math)
+        t_friction = friction_generalised_forces(tau_P, tau_H)[0]
+        P_pivot, P_hinge = loss_powers(tau_P, tau_H, th_d, ps_d)
+        torque = torque + t_friction
 
     v_M = kin.counterweight_velocity_xy(c_th, s_th, th_d, c_ps, s_ps, ps_d, e)
     v_CM = kin.centre_of_mass_velocity_xy(c_th, s_th, th_d, e)
@@ -304,9 +352,7 @@ def row_loads(phase: int, th: float, th_d: float, th_dd: float, ps: float, ps_d:
             _along(F_H, c_th, s_th), _across(F_H, c_th, s_th),
             _along(F_CM, c_th, s_th), _across(F_CM, c_th, s_th),
             _along(F_R, c_th, s_th), _across(F_R, c_th, s_th),
-            math.sqrt(F_S[0] * F_S[0] + F_S[1] * F_S[1]),
-            math.sqrt(F_H[0] * F_H[0] + F_H[1] * F_H[1]),
-            math.sqrt(F_CM[0] * F_CM[0] + F_CM[1] * F_CM[1]),
-            math.sqrt(F_R[0] * F_R[0] + F_R[1] * F_R[1]),
+            math.sqrt(F_S[0] * F_S[0] + F_S[1] * F_S[1]), F_H_abs,
+            math.sqrt(F_CM[0] * F_CM[0] + F_CM[1] * F_CM[1]), F_R_abs,
             math.sqrt(F_M[0] * F_M[0] + F_M[1] * F_M[1]),
-            math.sqrt(F_m[0] * F_m[0] + F_m[1] * F_m[1]))
+            math.sqrt(F_m[0] * F_m[0] + F_m[1] * F_m[1]), t_friction, P_pivot, P_hinge)

@@ -9,8 +9,9 @@ The method is DOP853, the explicit 8(5,3) pair of Dormand and Prince with the
 7th-order continuous extension of Hairer, Nørsett and Wanner ("Solving Ordinary
 Differential Equations I", 2nd ed., Sec. II.10; the Fortran code DOP853). Its
 coefficient tables are read as data from ``scipy.integrate._ivp.dop853_coefficients``
-and the error norm, step-size control and first-step choice follow
-:class:`scipy.integrate.DOP853`, so the two take the same steps up to rounding.
+(:mod:`trebuchet.model.dop853_tableau`, without importing scipy.integrate) and the error
+norm, step-size control and first-step choice follow :class:`scipy.integrate.DOP853`, so
+the two take the same steps up to rounding.
 
 What differs is the cost per step. ``solve_ivp`` spends ~50 µs of numpy overhead
 per step on a 4–6 component state; here one step is straight-line Python on float
@@ -41,8 +42,8 @@ from functools import cache
 from typing import Any
 
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _dop
-from scipy.optimize import brentq
+
+from trebuchet.model.dop853_tableau import DOP853 as _dop
 
 __all__ = ["solve", "RKResult", "DenseSolution", "ORDER", "DENSE_ORDER"]
 
@@ -337,6 +338,8 @@ def _locate(ev: Callable, interp: Callable, t0: float, h: float, y0: list[float]
         return t0
     if gb == 0.0 or (ga > 0.0) == (gb > 0.0):
         return t1 if abs(gb) <= abs(ga) else t0
+    from scipy.optimize import brentq  # here only: scipy.optimize costs ~0.1 s to import
+
     return brentq(g, t0, t1, xtol=4 * np.finfo(float).eps, rtol=4 * np.finfo(float).eps)
 
 

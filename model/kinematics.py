@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -43,12 +44,12 @@ __all__ = [
     "counterweight_velocity_xy",
     "centre_of_mass_velocity",
     "centre_of_mass_velocity_xy",
+    "trough_sling_angle",
+    "trough_f_g",
+    "trough_phi_d",
+    "trough_phi_dd",
 ]
 
-#: The component functions (floats or arrays in, ``(x, y)`` out) that compiled code calls.
-COMPONENT_FUNCTIONS = ("rotated_acceleration_xy", "projectile_position_xy",
-                       "projectile_velocity_xy", "counterweight_position_xy",
-                       "counterweight_velocity_xy", "centre_of_mass_velocity_xy")
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,3 +208,35 @@ def centre_of_mass_velocity(theta: np.ndarray | Angle, theta_d: np.ndarray,
                             e: Engine) -> np.ndarray:
     """``v_CM = L_CM θ̇ e_θ⊥``, m/s, shape (2, n)."""
     return np.array(centre_of_mass_velocity_xy(*_cos_sin(theta), theta_d, e))
+
+
+# ---------------------------------------------------------------------------------------------
+# The trough constraint of phase I (the projectile on the ground, the sling taut)
+
+def trough_sling_angle(theta: Any, e: Engine, H: float, lib: ModuleType = np) -> Any:
+    """Sling angle φ in the trough from the constraint ``H + L1 sin θ + L4 sin φ = 0``
+    (paper, eq. for phase I), on the branch under the beam (cos φ < 0), rad."""
+    return -lib.pi + lib.asin((H + e.L1 * lib.sin(theta)) / e.L4)
+
+
+def trough_f_g(theta: Any, phi: Any, e: Engine, lib: ModuleType = np) -> tuple[Any, Any]:
+    """The paper's ``f(θ)`` and ``g(θ)`` of phase I (dimensionless):
+    ``a_m = L1 (f θ̈ + g θ̇²) e_x``."""
+    cos_phi = lib.cos(phi)
+    f = -lib.sin(theta - phi) / cos_phi
+    c = lib.cos(theta)
+    g = -(e.L1 / e.L4) * c * c / (cos_phi * cos_phi * cos_phi) - lib.cos(theta - phi) / cos_phi
+    return f, g
+
+
+def trough_phi_d(theta: Any, phi: Any, theta_d: Any, e: Engine, lib: ModuleType = np) -> Any:
+    """φ̇ in the trough from ``L1 cos θ θ̇ + L4 cos φ φ̇ = 0``, rad/s."""
+    return -e.L1 * lib.cos(theta) * theta_d / (e.L4 * lib.cos(phi))
+
+
+def trough_phi_dd(theta: Any, phi: Any, theta_d: Any, phi_d: Any, theta_dd: Any, e: Engine,
+                  lib: ModuleType = np) -> Any:
+    """φ̈ in the trough, the time derivative of the velocity constraint, rad/s²."""
+    return (e.L4 * lib.sin(phi) * phi_d * phi_d
+            - e.L1 * (lib.cos(theta) * theta_dd - lib.sin(theta) * theta_d * theta_d)) / (
+        e.L4 * lib.cos(phi))

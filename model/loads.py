@@ -7,6 +7,7 @@ simulator's pandas-free path. The simulator, the ingest path and the FMU all cal
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -14,16 +15,24 @@ import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.flight import projectile_in_flight
-from trebuchet.model.forces import ANGLE_COLUMNS, ROW_COLUMNS, projectile_energy, rest_energies
+from trebuchet.model.forces import (
+    ANGLE_COLUMNS,
+    FRICTION_COLUMNS,
+    ROW_COLUMNS,
+    projectile_energy,
+    rest_energies,
+)
 from trebuchet.model.frames import frame
+from trebuchet.model.friction import has_friction
 from trebuchet.model.loads_kernel import load_block
-from trebuchet.model.scene import Scene
+from trebuchet.model.scene import Scene, as_scene
 
 __all__ = ["loads", "load_columns"]
 
 
 
-def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projected"] = "direct",
+def loads(angles: pd.DataFrame, scene: Scene | str | Path, *,
+          form: Literal["direct", "projected"] = "direct",
           release_state: dict[str, float] | None = None) -> pd.DataFrame:
     """Every force, torque, power and energy of the contract from angles and their derivatives.
 
@@ -33,7 +42,7 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
         Columns ``t`` (s), ``phase`` (1 trough, 2 sling, 3 released), ``theta psi phi`` (rad),
         ``*_d`` (rad/s) and ``*_dd`` (rad/s²). ``phi`` and its derivatives are ignored in
         phase 3.
-    scene : Scene
+    scene : Scene, or the path of a scene file (TOML)
         The engine, gravity, and the rest pose that energies are counted from.
     form : "direct" or "projected"
         ``direct``: the paper's eqs. (11) and (13). ``projected``: F_H on the counterweight arm
@@ -52,6 +61,7 @@ def loads(angles: pd.DataFrame, scene: Scene, *, form: Literal["direct", "projec
     """
     if form not in ("direct", "projected"):
         raise ValueError(f"form must be 'direct' or 'projected', got {form!r}")
+    scene = as_scene(scene, "forces")
     _check_angles(angles)
     given = _columns_of(angles)
     return frame(load_columns(given, scene, form=form, release_state=release_state),
@@ -72,12 +82,26 @@ def load_columns(given: dict[str, np.ndarray], scene: Scene, *,
     _check_phase(phase, held | free)
     block = load_block(given, scene, form == "projected", rest_energies(scene))
     out = dict(zip(ROW_COLUMNS, block, strict=True))
+    if has_friction(e):
+        t = np.asarray(given["t"], dtype=float)
+        for joint in ("pivot", "hinge"):
+            out[f"E_loss_{joint}"] = cumulative_energy(t, out[f"P_loss_{joint}"])
+    else:
+        for name in FRICTION_COLUMNS:
+            del out[name]
     if e.m > 0.0 and free.any():
         r_m, v_m = _in_flight(given["t"], out, held, free, scene, release_state)
         for name, v in zip(("x_m", "y_m", "vx_m", "vy_m"), (*r_m, *v_m), strict=True):
             out[name][free] = v
         out["E_m"][free] = projectile_energy(v_m, r_m[1], e, g) - rest_energies(scene)[0]
     return {**given, **out}
+
+
+def cumulative_energy(t: np.ndarray, power: np.ndarray) -> np.ndarray:
+    """``∫ P dt`` from the first row, J, by the trapezoidal rule over the rows' times ``t`` (s)
+    (the simulator replaces it with the integrated value)."""
+    steps = 0.5 * (power[1:] + power[:-1]) * np.diff(t)
+    return np.concatenate([[0.0], np.cumsum(steps)]) if t.size else np.zeros(0)
 
 
 def _columns_of(angles: pd.DataFrame) -> dict[str, np.ndarray]:

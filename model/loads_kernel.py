@@ -3,7 +3,8 @@
 numpy spends ~1 µs of overhead on each of the ~300 array operations the ~40 load columns take;
 on a shot's 1500 rows that was most of :func:`~trebuchet.model.simulate.simulate`'s time.
 Here numba compiles the force formulas of :mod:`trebuchet.model.forces` and
-:mod:`trebuchet.model.kinematics` themselves (their ``*_xy`` functions and
+:mod:`trebuchet.model.kinematics` themselves (registered by
+:mod:`trebuchet.model.shot_kernel`) (their ``*_xy`` functions and
 :func:`~trebuchet.model.forces.row_loads`, unchanged) into one loop over the rows that writes a
 block of float64 columns, so no formula is written twice.
 
@@ -18,21 +19,12 @@ from pathlib import Path
 
 import numba
 import numpy as np
-from numba.extending import register_jitable
 
-from trebuchet.model import dynamics as dyn
 from trebuchet.model import forces as fo
-from trebuchet.model import kinematics as kin
 from trebuchet.model.scene import Scene
-from trebuchet.model.shot_kernel import discard_stale_cache, jit_engine
+from trebuchet.model.shot_kernel import FORMULA_MODULES, discard_stale_cache, jit_engine
 
 __all__ = ["load_block"]
-
-for _name in kin.COMPONENT_FUNCTIONS:
-    register_jitable(getattr(kin, _name))
-for _name in (*fo.COMPONENT_FUNCTIONS, "row_loads"):
-    register_jitable(getattr(fo, _name))
-register_jitable(dyn.trough_f_g)
 
 _N_COLUMNS = len(fo.ROW_COLUMNS)
 
@@ -48,7 +40,7 @@ def _load_rows(phase, th, th_d, th_dd, ps, ps_d, ps_dd, ph, ph_d, ph_dd, e, g, H
             out[j, i] = row[j]
 
 
-_SOURCES = tuple(Path(m.__file__) for m in (dyn, fo, kin)) + (Path(__file__),)
+_SOURCES = tuple(Path(m.__file__) for m in FORMULA_MODULES) + (Path(__file__),)
 _cold = discard_stale_cache((_load_rows,), _SOURCES, "trebuchet_loads_kernel")
 
 

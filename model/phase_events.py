@@ -20,7 +20,7 @@ from trebuchet.model.scene import Engine
 __all__ = [
     "LIFT_OFF", "SLING_UPRIGHT", "GROUND", "RELEASE_TIME", "RELEASE_ANGLE", "DIRECTION",
     "lift_off_margin", "sling_upright_margin", "projectile_height", "time_to_release",
-    "climb_margin", "event_value",
+    "climb_margin", "event_value", "trough_margin",
 ]
 
 LIFT_OFF, SLING_UPRIGHT, GROUND, RELEASE_TIME, RELEASE_ANGLE = 0, 1, 2, 3, 4
@@ -33,8 +33,14 @@ def lift_off_margin(y: Any, e: Engine, g: float, H: float) -> float:
     """Phase I: the trough's normal force over the projectile's weight, ``F_N/(m g)``
     (dimensionless; paper, eq. (16) with ``F_N = m g − F_S·e_y``); lift-off where it falls
     through 0."""
-    th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
-    ph, _, th_dd, _, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H, math)
+    return trough_margin(dyn.phase_motion(1, y, e, g, H, math), e, g)
+
+
+def trough_margin(m: Any, e: Engine, g: float) -> float:
+    """``F_N/(m g)`` of :func:`lift_off_margin` from the motion ``m`` of
+    :func:`dynamics.phase_motion` in phase I (the FMU's C passes the motion under its own
+    solve of the friction couples)."""
+    th, ph, th_d, th_dd = m[0], m[2], m[3], m[6]
     f, gg = dyn.trough_f_g(th, ph, e, math)
     return 1.0 - e.L1 * (f * th_dd + gg * th_d * th_d) * math.tan(ph) / g
 

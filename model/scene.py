@@ -23,8 +23,11 @@ from typing import Any
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.user_files import read_user_file
 
-__all__ = ["Engine", "Start", "Release", "Flight", "Scene", "SCENE_KEYS", "as_scene",
-           "default_moment_of_inertia"]
+__all__ = ["Engine", "Friction", "Start", "Release", "Flight", "Scene", "SCENE_KEYS", "as_scene",
+           "default_moment_of_inertia", "DEFAULT_SMOOTHING_RATE"]
+
+#: rad/s: the sliding rate over which the friction couple's sign turns, ``tanh(w / rate)``.
+DEFAULT_SMOOTHING_RATE = 1e-3
 
 
 def default_moment_of_inertia(m_b: float, L1: float, L2: float) -> float:
@@ -36,6 +39,44 @@ def default_moment_of_inertia(m_b: float, L1: float, L2: float) -> float:
 
 
 @dataclass(frozen=True)
+class Friction:
+    """Coulomb friction in the engine's two bearings: the paper's "heat in proportion to load".
+
+    At the beam's shaft (the pivot) a couple of magnitude ``pivot_mu · pivot_radius · |F_R|``
+    opposes the beam's turning rate θ̇; at the counterweight's hinge pin a couple of magnitude
+    ``hinge_mu · hinge_radius · |F_H|`` opposes the arm's rate relative to the beam, ψ̇ − θ̇.
+    ``*_mu`` are Coulomb coefficients (dimensionless), ``*_radius`` the radii of shaft and pin
+    (m). The sign of a sliding rate ``w`` (rad/s) is taken as ``tanh(w / smoothing_rate)``.
+    """
+
+    pivot_mu: float = 0.0
+    pivot_radius: float = 0.0
+    hinge_mu: float = 0.0
+    hinge_radius: float = 0.0
+    smoothing_rate: float = DEFAULT_SMOOTHING_RATE
+
+    def __post_init__(self) -> None:
+        for name in ("pivot_mu", "pivot_radius", "hinge_mu", "hinge_radius", "smoothing_rate"):
+            value = getattr(self, name)
+            if not (isinstance(value, numbers.Real) and math.isfinite(value) and value >= 0.0):
+                raise TrebuchetInputError(f"Friction: {name} = {value!r}: must be a finite "
+                                          "number, zero or positive")
+        if self.smoothing_rate <= 0.0:
+            raise TrebuchetInputError(f"Friction: smoothing_rate = {self.smoothing_rate!r}: "
+                                      "must be positive")
+
+    @property
+    def pivot(self) -> float:
+        """``μ_P r_P``, m: the pivot's friction couple per newton of bearing load."""
+        return self.pivot_mu * self.pivot_radius
+
+    @property
+    def hinge(self) -> float:
+        """``μ_H r_H``, m: the hinge's friction couple per newton of hinge force."""
+        return self.hinge_mu * self.hinge_radius
+
+
+@dataclass(frozen=True)
 class Engine:
     """Lengths (m), masses (kg) and moment of inertia (kg m²) of the engine (paper, Table 1).
 
@@ -44,6 +85,8 @@ class Engine:
     ``L4`` sling, ``m_b`` beam, ``M`` counterweight, ``m`` projectile, ``I``
     beam about the pivot. ``counterweight_offset`` (rad) is None for the paper's hinged
     counterweight; for a counterweight fixed rigidly to the beam it is the constant ``ψ − θ``.
+    ``friction``: the bearings' Coulomb friction (:class:`Friction`), None for the paper's
+    frictionless engine.
     """
 
     L1: float
@@ -56,6 +99,7 @@ class Engine:
     m: float
     I: float
     counterweight_offset: float | None = None
+    friction: Friction | None = None
 
     def __post_init__(self) -> None:
         """Refuse what no engine can be, also where a program builds or ``replace``-s one (a
@@ -78,6 +122,21 @@ class Engine:
         """True when the counterweight is rigid on the beam at ``ψ = θ + counterweight_offset``
         (rad) instead of swinging on its hinge."""
         return self.counterweight_offset is not None
+
+    @property
+    def pivot_friction(self) -> float:
+        """``μ_P r_P`` (m) of :attr:`friction`; 0 without friction."""
+        return 0.0 if self.friction is None else self.friction.pivot
+
+    @property
+    def hinge_friction(self) -> float:
+        """``μ_H r_H`` (m) of :attr:`friction`; 0 without friction."""
+        return 0.0 if self.friction is None else self.friction.hinge
+
+    @property
+    def friction_rate(self) -> float:
+        """The sliding rate (rad/s) of the friction couples' ``tanh`` sign."""
+        return DEFAULT_SMOOTHING_RATE if self.friction is None else self.friction.smoothing_rate
 
     @property
     def first_moment(self) -> float:
@@ -135,6 +194,11 @@ class Scene:
     projectile: str = "trough"
     flight: Flight = field(default_factory=Flight)
     source: str = field(default="<scene>", compare=False)
+
+    @property
+    def friction(self) -> Friction | None:
+        """The bearings' friction (the engine's; None for a frictionless engine)."""
+        return self.engine.friction
 
     @property
     def delta_U(self) -> float:
@@ -210,6 +274,11 @@ class Scene:
         if self.projectile == "none":
             del data["release"], engine["m"], engine["L4"]
             del start["phi_deg"]
+        fr = e.friction
+        if fr is not None:
+            data["friction"] = {"pivot_mu": fr.pivot_mu, "pivot_radius": fr.pivot_radius,
+                                "hinge_mu": fr.hinge_mu, "hinge_radius": fr.hinge_radius,
+                                "smoothing_rate": fr.smoothing_rate}
         f = self.flight
         if f.model == "drag":
             data["flight"] = {"model": "drag", "diameter": f.diameter,
@@ -237,6 +306,7 @@ _SECTIONS = {
     "release": {"time", "velocity_angle_deg", "velocity_angle"},
     "environment": {"g"},
     "flight": {"model", "diameter", "drag_coefficient", "air_density"},
+    "friction": {"pivot_mu", "pivot_radius", "hinge_mu", "hinge_radius", "smoothing_rate"},
 }
 _REQUIRED_ENGINE = ("L1", "L2", "L_CM", "L3", "M", "m_b")
 
@@ -419,9 +489,10 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
                      f"between -90° and 0° (spigot low, on the projectile's side){hint}")
     H = r.positive("engine", "H", eng, "height in m") if "H" in eng else -L1 * math.sin(theta)
     offset = psi - theta if mount == "fixed" else None
+    friction = _parse_friction(r)
     try:
         engine = Engine(L1=L1, L2=L2, L_CM=L_CM, L3=L3, L4=L4, m_b=m_b, M=M, m=m, I=I,
-                        counterweight_offset=offset)
+                        counterweight_offset=offset, friction=friction)
     except TrebuchetInputError as exc:  # "Engine: I = inf: ...": the file's key, by name
         raise _engine_error(r, eng, exc) from None
     _check_start_pose(r, engine, theta, psi, phi, H, projectile, st, "H" in eng)
@@ -461,6 +532,29 @@ def _engine_error(r: _Reader, eng: dict[str, Any], exc: TrebuchetInputError
         return r.fail("engine", "I", f"(not given: m_b (L1² − L1 L2 + L2²) / 3 of m_b, L1 and "
                       f"L2) = {value}: {problem}")
     return r.fail("engine", name, f"= {value}: {problem}")
+
+
+def _parse_friction(r: _Reader) -> Friction | None:
+    """The ``[friction]`` section: None where the scene has none (the paper's engine). A
+    coefficient needs its radius and a radius its coefficient; each is zero or positive."""
+    fr = r.section("friction", required=False)
+    if not fr:
+        return None
+    values: dict[str, float] = {}
+    for key in ("pivot_mu", "pivot_radius", "hinge_mu", "hinge_radius"):
+        if key in fr:
+            values[key] = r.number("friction", key, fr)
+            if values[key] < 0.0:
+                raise r.fail("friction", key, f"= {values[key]:g}: must not be negative")
+    for joint in ("pivot", "hinge"):
+        mu, radius = f"{joint}_mu", f"{joint}_radius"
+        if (mu in values) != (radius in values):
+            given, missing = (mu, radius) if mu in values else (radius, mu)
+            raise r.fail("friction", missing, f"missing key ({given} needs it: the {joint}'s "
+                         "friction couple is mu x radius x load)")
+    if "smoothing_rate" in fr:
+        values["smoothing_rate"] = r.positive("friction", "smoothing_rate", fr, "rate in rad/s")
+    return Friction(**values)
 
 
 def _parse_flight(r: _Reader) -> Flight:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import hashlib
 import math
 import sys
+import types
 from collections import namedtuple
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,29 +33,36 @@ from pathlib import Path
 import numba
 import numpy as np
 from numba.extending import register_jitable
-from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from trebuchet.model import dynamics as dyn
+from trebuchet.model import forces as fo
+from trebuchet.model import friction as fr
 from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
+from trebuchet.model.dop853_tableau import DOP853 as _dop
 from trebuchet.model.integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
 from trebuchet.model.scene import Engine
 
 __all__ = ["JitEngine", "jit_engine", "solve_phase", "KernelSolution", "STATE_SIZE",
-           "discard_stale_cache"]
+           "discard_stale_cache", "FORMULA_MODULES"]
 
-for _name in (*dyn.__all__, *(n for n in pev.__all__ if n[0].islower())):
-    register_jitable(getattr(dyn, _name, None) or getattr(pev, _name))
+#: The modules whose functions compiled code calls unchanged (``lib=math``).
+FORMULA_MODULES = (kin, fr, fo, dyn, pev)
+for _module in FORMULA_MODULES:
+    for _f in list(vars(_module).values()):
+        if isinstance(_f, types.FunctionType) and _f.__module__ == _module.__name__:
+            register_jitable(_f)
 for _f in (_crossed, next_step_size):  # shared with the pure-Python integrator
     register_jitable(_f)
-for _name in ("projectile_position_xy", "projectile_velocity_xy"):  # the events' kinematics
-    register_jitable(getattr(kin, _name))
 
-#: The engine as numba sees it: Engine's fields, ``counterweight_offset`` NaN when hinged.
+#: The engine as numba sees it: Engine's fields, ``counterweight_offset`` NaN when hinged, and
+#: the bearings' friction ``μ r`` (m) at pivot and hinge with its smoothing rate (rad/s).
 JitEngine = namedtuple("JitEngine", "L1 L2 L_CM L3 L4 m_b M m I counterweight_offset "
-                                    "fixed_counterweight")
+                                    "fixed_counterweight pivot_friction hinge_friction "
+                                    "friction_rate")
 
-#: State size of each phase: (θ, ψ, θ̇, ψ̇), (θ, ψ, φ, θ̇, ψ̇, φ̇), (θ, ψ, θ̇, ψ̇).
+#: State size of each phase: (θ, ψ, θ̇, ψ̇), (θ, ψ, φ, θ̇, ψ̇, φ̇), (θ, ψ, θ̇, ψ̇); an engine with
+#: friction carries two more, the energies lost at pivot and hinge (:func:`dyn.state_derivative`).
 STATE_SIZE = {1: 4, 2: 6, 3: 4}
 
 _NS, _NX, _NP = _dop.N_STAGES, _dop.N_STAGES_EXTENDED, _dop.INTERPOLATOR_POWER
@@ -70,7 +78,8 @@ def jit_engine(e: Engine) -> JitEngine:
     """The engine's parameters as a :data:`JitEngine`."""
     offset = e.counterweight_offset
     return JitEngine(e.L1, e.L2, e.L_CM, e.L3, e.L4, e.m_b, e.M, e.m, e.I,
-                     math.nan if offset is None else float(offset), e.fixed_counterweight)
+                     math.nan if offset is None else float(offset), e.fixed_counterweight,
+                     float(e.pivot_friction), float(e.hinge_friction), float(e.friction_rate))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -78,16 +87,10 @@ def jit_engine(e: Engine) -> JitEngine:
 
 @numba.njit(cache=True)
 def _rate(kind, y, e, g, H, out):  # noqa: ANN001, ANN202 - numba
-    """``out = y'`` of phase ``kind`` (:func:`dynamics.state_rates_phase1` …)."""
-    if kind == 1:
-        r = dyn.state_rates_phase1(y, e, g, H, math)
-        out[0], out[1], out[2], out[3] = r[0], r[1], r[2], r[3]
-    elif kind == 2:
-        s = dyn.state_rates_phase2(y, e, g, math)
-        out[0], out[1], out[2], out[3], out[4], out[5] = s[0], s[1], s[2], s[3], s[4], s[5]
-    else:
-        r = dyn.state_rates_phase3(y, e, g, math)
-        out[0], out[1], out[2], out[3] = r[0], r[1], r[2], r[3]
+    """``out = y'`` of phase ``kind`` (:func:`dynamics.state_derivative`)."""
+    d = dyn.state_derivative(kind, y, e, g, H, math)
+    for i in range(y.shape[0]):
+        out[i] = d[i]
 
 
 @numba.njit(cache=True)
@@ -409,8 +412,8 @@ def _states(ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
 
 _COMPILED = (_rate, _event, _grown, _stage, _step, _dense, _interp, _interp_point, _event_at,
              _brent, _locate, _initial_step, _integrate, _state_at, _columns, _states)
-_SOURCES = (Path(dyn.__file__), Path(pev.__file__), Path(kin.__file__),
-            Path(_crossed.__code__.co_filename), Path(__file__))
+_SOURCES = (*(Path(m.__file__) for m in FORMULA_MODULES), Path(_crossed.__code__.co_filename),
+            Path(__file__))
 
 
 def discard_stale_cache(compiled: tuple, sources: tuple[Path, ...], name: str) -> bool:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from types import ModuleType
 from typing import Any
 
@@ -26,14 +27,14 @@ from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
 from trebuchet.model.flight import flight_summary
 from trebuchet.model.frames import frame
+from trebuchet.model.friction import has_friction
 from trebuchet.model.loads import load_columns
-from trebuchet.model.scene import Scene
+from trebuchet.model.output_size import MAX_ROWS, check_output_size
+from trebuchet.model.scene import Scene, as_scene
+from trebuchet.model.settings import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
-DEFAULT_RTOL = 1e-10
-ACCURACY = {"fast": 1e-6, "default": DEFAULT_RTOL, "precise": 1e-12}  # named tolerances
-DEFAULT_AFTER_RELEASE = 0.5  # s of phase III simulated by default
 DEFAULT_DRY_FIRE = 1.5  # s simulated by default for a dry fire (phase III from the start)
 MAX_SHOT = 60.0  # s: a shot still in the trough or sling by then is refused
 #: Angles, rates and accelerations, in the row order of :meth:`Trajectory.angle_columns`.
@@ -71,6 +72,27 @@ class Trajectory:
     @property
     def nfev(self) -> int:
         return sum(p.nfev for p in self.phases)
+
+    @property
+    def friction(self) -> bool:
+        """True when the engine has friction: every phase's state then ends with the energies
+        lost at pivot and hinge (in units of :func:`dynamics.energy_scale`)."""
+        return has_friction(self.scene.engine)
+
+    def lost_energies(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``E_loss_pivot``, ``E_loss_hinge`` (J, since the trigger) at times ``t`` (s), from the
+        integrated states (zero without friction)."""
+        t = np.asarray(t, dtype=float)
+        out = np.zeros((2, t.size))
+        if self.friction:
+            which = np.minimum(np.searchsorted([p.t1 for p in self.phases], t, side="left"),
+                               len(self.phases) - 1)
+            for k, p in enumerate(self.phases):
+                sel = np.flatnonzero(which == k)
+                if sel.size:
+                    out[:, sel] = np.asarray(p.sol(t[sel])).reshape(-1, sel.size)[-2:]
+            out *= dyn.energy_scale(self.scene.engine, self.scene.g)
+        return out[0], out[1]
 
     def angles(self, t: np.ndarray) -> pd.DataFrame:
         """Angles, rates and accelerations at times ``t`` (s). At an event time the row takes
@@ -116,15 +138,9 @@ def _rhs(scene: Scene, kind: int, lib: ModuleType = math) -> Callable:
     """Right-hand side of phase ``kind`` for the pure-Python integrators: on lists of floats with
     ``lib=math`` (the steps), on arrays of shape (n, m) with ``lib=numpy`` (dense output)."""
     e, g, H = scene.engine, scene.g, scene.start.H
-    if kind == 1:
-        def rhs(t: Any, y: Sequence[Any]) -> Any:
-            return _pack(lib, dyn.state_rates_phase1(y, e, g, H, lib))
-    elif kind == 2:
-        def rhs(t: Any, y: Sequence[Any]) -> Any:
-            return _pack(lib, dyn.state_rates_phase2(y, e, g, lib))
-    else:
-        def rhs(t: Any, y: Sequence[Any]) -> Any:
-            return _pack(lib, dyn.state_rates_phase3(y, e, g, lib))
+
+    def rhs(t: Any, y: Sequence[Any]) -> Any:
+        return _pack(lib, dyn.state_derivative(kind, y, e, g, H, lib)[:len(y)])
     return rhs
 
 
@@ -209,21 +225,22 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     rtol = resolve_rtol(rtol)
     if after_release is None:
         after_release = DEFAULT_DRY_FIRE if scene.projectile == "none" else DEFAULT_AFTER_RELEASE
-    if not after_release >= 0.0:
-        raise TrebuchetInputError(f"after_release = {after_release:g} s: must not be negative")
+    check_output_size(after_release=after_release)
     e, g, H, s = scene.engine, scene.g, scene.start.H, scene.start
     phases: list[PhaseSolution] = []
     events: dict[str, float] = {}
     t0, beam = 0.0, [s.theta, s.psi, 0.0, 0.0]  # θ, ψ, θ̇, ψ̇
     sling = [s.phi, 0.0]  # φ, φ̇
+    lost = [0.0, 0.0] if has_friction(e) else []  # energies lost at pivot and hinge
     release_state = None
     if 1 in scene.phases:
-        t0, beam = _phase_trough(scene, beam, rtol, method, phases, events)
+        t0, beam, lost = _phase_trough(scene, beam, lost, rtol, method, phases, events)
         th, ps, th_d, ps_d = beam
         ph, ph_d, _, _, _ = dyn.accelerations_phase1(th, ps, th_d, ps_d, e, g, H, math)
         sling = [ph, ph_d]
     if 2 in scene.phases:
-        t0, beam, sling = _phase_sling(scene, t0, beam, sling, rtol, method, phases, events)
+        t0, beam, sling, lost = _phase_sling(scene, t0, beam, sling, lost, rtol, method, phases,
+                                             events)
         th, ps, th_d, ps_d = beam
         ph, ph_d = sling
         c_th, s_th, c_ph, s_ph = math.cos(th), math.sin(th), math.cos(ph), math.sin(ph)
@@ -233,7 +250,7 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     # Phase III: beam and counterweight swing on; the projectile flies (or there is none).
     t_end = t0 + after_release
     if after_release > 0.0 or not phases:
-        sol = _solve(scene, 3, t0, t_end, beam, [], rtol, method,
+        sol = _solve(scene, 3, t0, t_end, beam + lost, [], rtol, method,
                      phases[-1].last_step if phases else None)
         _check(sol, scene, "phase III")
         phases.append(PhaseSolution(3, t0, t_end, sol.sol, sol.nfev))
@@ -242,15 +259,15 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
                       release_state=release_state, rtol=rtol, method=method)
 
 
-def _phase_trough(scene: Scene, beam: list[float], rtol: float, method: str,
+def _phase_trough(scene: Scene, beam: list[float], lost: list[float], rtol: float, method: str,
                   phases: list[PhaseSolution], events: dict[str, float]
-                  ) -> tuple[float, list[float]]:
+                  ) -> tuple[float, list[float], list[float]]:
     """Phase I, beam and counterweight with the projectile on the trough constraint, up to
-    lift-off. Returns the lift-off time and the beam state there."""
+    lift-off. Returns the lift-off time and the beam state and lost energies there."""
     e, rel = scene.engine, scene.release
     t_rel = rel.time if rel.time is not None else math.inf
     ev = [(pev.LIFT_OFF, 0.0), (pev.SLING_UPRIGHT, 0.0)]
-    sol = _solve(scene, 1, 0.0, MAX_SHOT, beam, ev, rtol, method)
+    sol = _solve(scene, 1, 0.0, MAX_SHOT, beam + lost, ev, rtol, method)
     _check(sol, scene, "phase I")
     if sol.status != 1:
         raise TrebuchetInputError(
@@ -271,14 +288,16 @@ def _phase_trough(scene: Scene, beam: list[float], rtol: float, method: str,
                                   "trough")
     events["lift_off"] = t_lift
     phases.append(PhaseSolution(1, 0.0, t_lift, sol.sol, sol.nfev, _last_full_step(sol)))
-    return t_lift, list(sol.y_events[0][0])
+    y = [float(v) for v in sol.y_events[0][0]]
+    return t_lift, y[:4], y[4:]
 
 
-def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float], rtol: float,
-                 method: str, phases: list[PhaseSolution], events: dict[str, float]
-                 ) -> tuple[float, list[float], list[float]]:
+def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float],
+                 lost: list[float], rtol: float, method: str, phases: list[PhaseSolution],
+                 events: dict[str, float]
+                 ) -> tuple[float, list[float], list[float], list[float]]:
     """Phase II, the projectile in the sling, up to release. Returns the release time and the
-    beam and sling states there."""
+    beam and sling states and lost energies there."""
     rel = scene.release
     t_rel = rel.time if rel.time is not None else math.inf
     if t_rel <= t0:
@@ -292,7 +311,7 @@ def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float],
     t_stop = min(t_rel, MAX_SHOT) if rel.velocity_angle is None else MAX_SHOT
     th, ps, th_d, ps_d = beam
     ph, ph_d = sling
-    sol = _solve(scene, 2, t0, t_stop, [th, ps, ph, th_d, ps_d, ph_d], ev, rtol, method,
+    sol = _solve(scene, 2, t0, t_stop, [th, ps, ph, th_d, ps_d, ph_d, *lost], ev, rtol, method,
                  phases[-1].last_step if phases else None)
     _check(sol, scene, "phase II")
     hits = [(te[0], ye[0], k) for k, (te, ye) in enumerate(zip(sol.t_events, sol.y_events,
@@ -317,8 +336,8 @@ def _phase_sling(scene: Scene, t0: float, beam: list[float], sling: list[float],
     t_release = float(t_release)
     events["release"] = t_release
     phases.append(PhaseSolution(2, t0, t_release, sol.sol, sol.nfev, _last_full_step(sol)))
-    th, ps, ph, th_d, ps_d, ph_d = (float(v) for v in y_release)
-    return t_release, [th, ps, th_d, ps_d], [ph, ph_d]
+    th, ps, ph, th_d, ps_d, ph_d, *lost = (float(v) for v in y_release)
+    return t_release, [th, ps, th_d, ps_d], [ph, ph_d], lost
 
 
 def _check(sol: Any, scene: Scene, what: str) -> None:
@@ -336,9 +355,10 @@ def default_times(traj: Trajectory, dt: float = 1e-3) -> np.ndarray:
 
 
 def engine_energy(run: Mapping[str, Any], traj: Trajectory) -> np.ndarray:
-    """Mechanical energy gained by the engine since rest, J: ``E_m + E_M + E_beam``, with the
-    projectile's energy frozen at its release value once it flies (drag may take it after
-    that). Zero for an exact solution: the drift of the integrator."""
+    """Mechanical energy gained by the engine since rest plus the heat its bearings made, J:
+    ``E_m + E_M + E_beam + E_loss_pivot + E_loss_hinge``, with the projectile's energy frozen at
+    its release value once it flies (drag may take it after that). Zero for an exact
+    solution: the drift of the integrator."""
     E_m = np.asarray(run["E_m"])
     if traj.release_state is not None:
         rs, e, s = traj.release_state, traj.scene.engine, traj.scene
@@ -349,17 +369,21 @@ def engine_energy(run: Mapping[str, Any], traj: Trajectory) -> np.ndarray:
                 math.sin(s.start.phi), e, s.start.H)[1]
         at_release = 0.5 * e.m * (rs["vx"] ** 2 + rs["vy"] ** 2) + e.m * s.g * (rs["y"] - y_rest)
         E_m = np.where(np.asarray(run["phase"]) == 3, at_release, E_m)
-    return E_m + np.asarray(run["E_M"]) + np.asarray(run["E_beam"])
+    total = E_m + np.asarray(run["E_M"]) + np.asarray(run["E_beam"])
+    if "E_loss_pivot" in run:
+        total = total + np.asarray(run["E_loss_pivot"]) + np.asarray(run["E_loss_hinge"])
+    return total
 
 
-def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *,
+def simulate(scene: Scene | str | Path,
+             t_eval: Sequence[float] | np.ndarray | None = None, *,
              rtol: float | str = "default", method: str = "DOP853",
              after_release: float | None = None, dt: float = 1e-3) -> pd.DataFrame:
     """Simulate a shot and compute every force, torque, power and energy of the paper.
 
     Parameters
     ----------
-    scene : Scene
+    scene : Scene, or the path of a scene file (TOML)
         Engine, start pose, release rule, gravity.
     t_eval : array of s, optional
         Output times after the trigger. Default: every ``dt`` s, plus lift-off, release and the
@@ -387,14 +411,18 @@ def simulate(scene: Scene, t_eval: Sequence[float] | np.ndarray | None = None, *
     ``attrs["flight"]`` the flight (vacuum or drag, None for a dry fire);
     ``attrs["diagnostics"]`` the solver, tolerance, number of evaluations and energy drift.
     """
+    scene = as_scene(scene, "simulate")
     rtol = resolve_rtol(rtol)
     times = None if t_eval is None else _checked_times(t_eval)
-    if times is None and not (math.isfinite(dt) and dt > 0.0):
-        raise TrebuchetInputError(f"dt = {dt:g} s: the output step must be a positive number "
-                                  "of seconds")
+    if times is None:
+        check_output_size(dt, after_release)
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
+    if times is None:
+        check_output_size(dt, span=traj.t_end)
     times = default_times(traj, dt) if times is None else times
     cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
+    if traj.friction:
+        cols["E_loss_pivot"], cols["E_loss_hinge"] = traj.lost_energies(times)
     _refuse_non_finite(cols, scene)
     drift = float(np.max(np.abs(engine_energy(cols, traj)))) if times.size else 0.0
     delta_u = scene.delta_U
@@ -427,6 +455,9 @@ def _checked_times(t_eval: Sequence[float] | np.ndarray) -> np.ndarray:
     if bad.size:
         raise TrebuchetInputError(f"t_eval[{bad[0]}] = {t[bad[0]]}: times must be finite "
                                   f"({bad.size} are not)")
+    if t.size > MAX_ROWS:
+        raise TrebuchetInputError(f"t_eval holds {t.size:,} times: at most {MAX_ROWS:,} output "
+                                  "rows in one run")
     return t
 
 

@@ -32,7 +32,6 @@ both included: ``30:60:7`` is 30, 35, ..., 60).
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 import os
@@ -48,8 +47,10 @@ from tqdm.auto import tqdm
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.dynamics import trough_sling_angle
+from trebuchet.model.output_size import check_output_size
 from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
-from trebuchet.model.simulate import ACCURACY, resolve_rtol, simulate
+from trebuchet.model.settings import accuracy_option, output_step
+from trebuchet.model.simulate import resolve_rtol, simulate
 
 __all__ = [
     "SUMMARY_COLUMNS",
@@ -110,38 +111,7 @@ class SimulationOptions:
         if self.after_release is not None and not self.after_release >= 0.0:
             raise TrebuchetInputError(f"after_release = {self.after_release:g} s: must not be "
                                       "negative")
-
-
-# --------------------------------------------------------------------------- command-line values
-# (shared by ``simulate`` and ``sweep``: one spelling, one check)
-
-MAX_DT = 0.1  # s: a coarser output step misses the shot's events and peaks
-
-
-def output_step(text: str) -> float:
-    """``--dt``: an output step in s, in (0, 0.1] (``simulate``, ``sweep``, ``report``)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: not a number of seconds") from None
-    if not 0.0 < value <= MAX_DT:
-        raise argparse.ArgumentTypeError(f"{text}: the output step must lie in (0, {MAX_DT:g}] "
-                                         "s (a shot lasts about a second)")
-    return value
-
-
-def accuracy_option(text: str) -> float | str:
-    """``--accuracy`` (also spelt ``--rtol``): a preset or a relative tolerance in (0, 1e-2)."""
-    if text in ACCURACY:
-        return text
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: give " + ", ".join(ACCURACY)
-                                         + " or a tolerance such as 1e-8") from None
-    if not 0.0 < value < 1e-2:
-        raise argparse.ArgumentTypeError(f"{text}: a tolerance must lie between 0 and 1e-2")
-    return value
+        check_output_size(self.dt, self.after_release)  # no design could run beyond these
 
 
 # --------------------------------------------------------------------------- grid

@@ -6,6 +6,9 @@
 ``--grid KEY=VALUES`` names a scene key as ``section.key`` (units of the scene file) and its
 values as a comma list (``10000,19100,30000``) or ``start:stop:count`` (``count`` evenly spaced
 values, both ends included). The table is written whole or not at all.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the sweep loads when the
+command runs.
 """
 
 from __future__ import annotations
@@ -14,17 +17,8 @@ import argparse
 import time
 
 from trebuchet.errors import TrebuchetInputError, cli_command
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import ACCURACY
-from trebuchet.model.sweep import (
-    STATUS_OK,
-    SimulationOptions,
-    accuracy_option,
-    output_step,
-    parse_grid_option,
-    sweep,
-)
-from trebuchet.output import check_target, write_csv
+from trebuchet.model.settings import ACCURACY, accuracy_option, output_step
+from trebuchet.model.units import UNITS_HELP
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,6 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "row per design: the parameters, status and error (the reason a design "
                     "was refused), release, range in vacuum, peak forces and torque (SI).")
     p.add_argument("scene", help="base scene file (TOML)")
+    p.add_argument("--units", action="store_true", help=UNITS_HELP)
     p.add_argument("--grid", action="append", required=True, metavar="KEY=VALUES",
                    help="scene key section.key and its values: a,b,c or start:stop:count "
                         "(both ends included), e.g. engine.M=10000,19100 or "
@@ -56,6 +51,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _sweep(args: argparse.Namespace) -> int:
+    from trebuchet.csv_table import write_table
+    from trebuchet.model.scene import Scene
+    from trebuchet.model.sweep import STATUS_OK, SimulationOptions, parse_grid_option, sweep
+    from trebuchet.output import check_target
+
     grid: dict[str, tuple[float, ...]] = {}
     for text in args.grid:
         key, values = parse_grid_option(text)
@@ -66,14 +66,30 @@ def _sweep(args: argparse.Namespace) -> int:
         raise TrebuchetInputError(f"--workers {args.workers}: must be at least 1")
     options = SimulationOptions(rtol=args.rtol, dt=args.dt, after_release=args.after_release)
     options.check()
-    check_target(args.output)
+    check_target(args.output, inputs=[args.scene])
     base = Scene.from_toml(args.scene)
     t0 = time.perf_counter()
     table = sweep(base, grid, executor=args.scheduler, workers=args.workers,
                   progress=not args.quiet, options=options)
     seconds = time.perf_counter() - t0
-    write_csv(table, args.output)
+    write_table(table, args.output, inputs=[args.scene],
+                units=sweep_units(list(table.columns)) if args.units else None)
     ok = int((table["status"] == STATUS_OK).sum())
     print(f"{len(table)} designs in {seconds:.1f} s: {ok} ok, {len(table) - ok} refused or "
           f"failed (reason in column 'error') -> {args.output}")
     return 0
+
+
+def sweep_units(columns: list[str]) -> dict[str, str]:
+    """The unit of each column of a sweep's table: the scene keys' and the model's
+    (:func:`~trebuchet.model.units.column_unit`), the summary's as
+    :data:`~trebuchet.model.sweep.SUMMARY_COLUMNS` states them ("1": none)."""
+    from trebuchet.model.sweep import SUMMARY_COLUMNS
+    from trebuchet.model.units import column_units
+
+    units = column_units(columns)
+    for name, text in SUMMARY_COLUMNS.items():
+        unit = text.split(",", 1)[0].strip()
+        if name in columns and unit != "1":
+            units[name] = {"°": "deg"}.get(unit, unit)
+    return units

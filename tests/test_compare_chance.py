@@ -128,7 +128,8 @@ def test_the_first_screen_speaks_the_figures_units(demo):
     assert list(short.columns) == ["quantity", "peak measured ± sd", "peak predicted",
                                    "outside ±2 sd", "chance allows", "verdict"]
     text = short.to_string()
-    assert "m g" in text and "M g" in text and "kN m" in text and "kJ" in text
+    assert "m·g" in text and "M·g" in text and "kN m" in text and "kJ" in text
+    assert "\u00a0kN)" in short.loc[0, "peak measured ± sd"]  # a force in m·g has kN beside it
     assert not any("e+" in str(v) for v in short.to_numpy().ravel()), text
     assert "%" in short.loc[0, "outside ±2 sd"]
     html = verdict_html(tables["trigger"], scene)
@@ -136,7 +137,7 @@ def test_the_first_screen_speaks_the_figures_units(demo):
     details = details_table(tables["fit"], scene)
     assert "chance: limit (%)" in details.columns and "at (ms)" in details.columns
     f_s = details.loc[details["quantity"] == "F_S_abs"].iloc[0]
-    assert f_s["unit"] == "m g" and 40 < f_s["measured peak"] < 70
+    assert f_s["unit"] == "m·g" and 40 < f_s["measured peak"] < 70
 
 
 def test_a_verdict_without_chance_says_so(demo):

@@ -18,6 +18,7 @@ from trebuchet import cli  # noqa: E402
 from trebuchet.errors import TrebuchetInputError  # noqa: E402
 from trebuchet.ingest.cli import log_options  # noqa: E402
 from trebuchet.ingest.compare import CONTRACT_COLUMNS, QUANTITIES  # noqa: E402
+from trebuchet.output import OUTPUT_MARKER  # noqa: E402
 from trebuchet.report import compare_cli
 from trebuchet.report.figures import FIGURES  # noqa: E402
 
@@ -79,10 +80,11 @@ def test_a_failure_midway_leaves_no_report_and_keeps_an_old_one(run, tmp_path, m
     old = tmp_path / "old"
     old.mkdir()
     (old / "index.html").write_text("the old report")
+    (old / OUTPUT_MARKER).write_text('{"written_by": "trebuchet", "files": ["index.html"]}')
     with pytest.raises(RuntimeError):
         run("compare", DEMO_LOG, "--scene", HORSDAL, "-o", old, "--quiet")
     assert (old / "index.html").read_text() == "the old report"
-    assert sorted(p.name for p in old.iterdir()) == ["index.html"]
+    assert sorted(p.name for p in old.iterdir()) == [OUTPUT_MARKER, "index.html"]
     assert leftovers(tmp_path) == []
 
 

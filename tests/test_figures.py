@@ -26,7 +26,7 @@ from trebuchet.report.figures_numbers import (  # noqa: E402
 )
 
 TRIGGER = 0.5  # s: the fake log's trigger, in the log's own time
-UNIT = re.compile(r"\([^()]*(?<![A-Za-z_])(?:ms|m|m g|M g|kN m|kW|kJ|%|N)(?![A-Za-z_])[^()]*\)")
+UNIT = re.compile(r"\([^()]*(?<![A-Za-z_])(?:ms|m|m·g|M·g|kN m|kW|kJ|%|N)(?![A-Za-z_])[^()]*\)")
 
 
 @pytest.fixture(scope="module")

@@ -26,6 +26,7 @@ from trebuchet.fmu.interface import (
     scene_from_parameters,
 )
 from trebuchet.model.forces import LOAD_COLUMNS
+from trebuchet.model.friction import friction_couples
 from trebuchet.model.simulate import simulate
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="the build needs gcc")
@@ -54,6 +55,31 @@ def assert_outputs_equal(result, ref: pd.DataFrame, label: str, rel: float = REL
         assert np.all(np.isfinite(got)), f"{label}: {name} not finite"
         err = np.max(np.abs(got - want))
         assert err <= rel * scale + 1e-300, f"{label}: {name} off by {err:g} (peak {scale:g})"
+
+
+#: data_samples/horsdal_friction.toml's bearings.
+FRICTION = {"friction.pivot_mu": 0.15, "friction.pivot_radius": 0.1, "friction.hinge_mu": 0.15,
+            "friction.hinge_radius": 0.06}
+#: data_samples/small_fast.toml: the small fast engine with friction (released at a 40° climb).
+SMALL_FAST = {"engine.L1": 1.5, "engine.L2": 0.4, "engine.L_CM": 0.55, "engine.L3": 0.5,
+              "engine.L4": 1.4, "engine.m_b": 4.0, "engine.M": 100.0, "engine.m": 0.5,
+              "start.theta_deg": -45.0, "release.time": 0.0, "release.velocity_angle_deg": 40.0,
+              "environment.g": 9.81, "friction.pivot_mu": 0.3, "friction.pivot_radius": 0.0125,
+              "friction.hinge_mu": 0.3, "friction.hinge_radius": 0.010}
+
+
+def hold_couples_to_own_state(result: pd.DataFrame, ref: pd.DataFrame,
+                              values: dict[str, float]) -> None:
+    """The friction couples turn over 1e-3 rad/s of θ̇ (tanh): where the beam turns back
+    (t = 1.364 s) CVode's 1e-8 in θ̇ moves them by 1e-5 of their peak. Hold ``torque_friction``
+    to the couples of the FMU's own rates and loads instead (and take it as the reference)."""
+    scene = scene_from_parameters(values)
+    tau_P, tau_H = friction_couples(np.hypot(result.F_R_x, result.F_R_y),
+                                    np.hypot(result.F_H_x, result.F_H_y), result.theta_d,
+                                    result.psi_d, scene.engine, np)
+    np.testing.assert_allclose(result.torque_friction, tau_H - tau_P, rtol=1e-12,
+                               atol=1e-9 * np.abs(ref.torque_friction).max())
+    ref["torque_friction"] = result["torque_friction"].to_numpy()
 
 
 def start_values(**changes: float) -> dict[str, float]:
@@ -136,7 +162,8 @@ def test_parameters_have_units_starts_ranges_and_choices():
         if p.type == "Real":
             assert p.min is not None and p.max is not None, p.name
             assert p.min <= p.start <= p.max, p.name
-            assert p.unit is not None or p.name == "flight.drag_coefficient", p.name
+            dimensionless = ("flight.drag_coefficient", "friction.pivot_mu", "friction.hinge_mu")
+            assert p.unit is not None or p.name in dimensionless, p.name
         else:
             assert p.type == "Enumeration" and p.start in p.choices, p.name
     scene = scene_from_parameters({p.name: p.start for p in PARAMETERS})
@@ -194,7 +221,8 @@ def test_model_description(fmu_path):
     assert by_name["F_R_x"].unit == "N" and by_name["torque"].unit == "N.m"
     assert by_name["theta"].unit == "rad" and by_name["theta"].displayUnit == "deg"
     states = [d.variable.derivative.name for d in md.derivatives]
-    assert states == ["theta", "psi", "phi", "theta_d", "psi_d", "phi_d"]
+    assert states == ["theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "E_loss_pivot",
+                      "E_loss_hinge"]
     assert set(md.buildConfigurations[0].sourceFileSets[0].sourceFiles) >= {
         "treb_formulas.c", "fmi2.c"}
 
@@ -248,7 +276,12 @@ def test_lift_off_and_release_fall_inside_steps(step_runs, horsdal):
     {"start.projectile": 2, "engine.H": 12.0, "start.phi_deg": -90.0},
     {"start.projectile": 3, "release.time": 0.0},
     {"flight.model": 2, "flight.diameter": 0.3},
-], ids=["fixed", "angle", "both", "sling", "dry", "drag"])
+    FRICTION,
+    SMALL_FAST,
+    {**FRICTION, "engine.counterweight": 2, "engine.L3": 0.5, "start.psi_deg": 130.0},
+    {**FRICTION, "start.projectile": 3, "release.time": 0.0},
+], ids=["fixed", "angle", "both", "sling", "dry", "drag", "friction", "small-friction",
+        "fixed-friction", "dry-friction"])
 def test_cosimulation_of_variants_equals_in_process(fmu_path, changes):
     from fmpy import simulate_fmu
 
@@ -265,19 +298,23 @@ def test_cosimulation_of_variants_equals_in_process(fmu_path, changes):
     assert_outputs_equal(result, ref, str(changes))
 
 
-def test_model_exchange_under_cvode_equals_in_process(fmu_path):
+@pytest.mark.parametrize("changes", [{}, FRICTION], ids=["frictionless", "friction"])
+def test_model_exchange_under_cvode_equals_in_process(fmu_path, changes):
     from fmpy import simulate_fmu
 
     result = simulate_fmu(str(fmu_path), stop_time=1.5, output_interval=1e-3,
-                          fmi_type="ModelExchange", solver="CVode", record_events=False)
+                          fmi_type="ModelExchange", solver="CVode", record_events=False,
+                          start_values=changes)
     assert result["time"][-1] == pytest.approx(1.5)
-    ref = reference(result["time"], t_stop=1.5)
+    ref = reference(result["time"], {**start_values(), **changes}, t_stop=1.5)
     # The release by time (0.997 s) falls on an output point: fmpy records the state after
     # the event there, the simulator the phase that ends there. Compare every other point.
     keep = np.abs(result["time"] - 0.997) > 1e-9
     assert keep.sum() == len(keep) - 1 and result["phase"][~keep][0] == 3
     ref = ref[keep].reset_index(drop=True)
     result = pd.DataFrame({n: result[n] for n in result.dtype.names})[keep]
+    if changes:
+        hold_couples_to_own_state(result, ref, {**start_values(), **changes})
     assert_outputs_equal(result.reset_index(drop=True), ref, "model exchange", rel=REL_ME)
 
 
@@ -297,11 +334,14 @@ def test_model_exchange_release_command_input(fmu_path):
 
 
 @pytest.mark.parametrize("changes, x", [
-    ({}, [-0.6, -1.2, 0.0, 2.0, -3.0, 0.0]),  # trough: phi and its rate follow the constraint
+    ({}, [-0.6, -1.2, 0.0, 2.0, -3.0, 0.0, 0.0, 0.0]),  # trough: phi follows the constraint
     ({"start.projectile": 2, "engine.H": 12.0, "start.phi_deg": -90.0},
-     [-0.4, -1.0, -1.9, 2.5, -1.0, 4.0]),  # in the sling
-    ({"start.projectile": 3, "release.time": 0.0}, [0.3, -0.5, 0.0, 3.0, 2.0, 0.0]),  # dry
-], ids=["trough", "sling", "dry"])
+     [-0.4, -1.0, -1.9, 2.5, -1.0, 4.0, 0.0, 0.0]),  # in the sling
+    ({"start.projectile": 3, "release.time": 0.0}, [0.3, -0.5, 0.0, 3.0, 2.0, 0.0, 0.0, 0.0]),
+    (FRICTION, [-0.6, -1.2, 0.0, 2.0, -3.0, 0.0, 900.0, 400.0]),  # lost energies: states
+    ({**FRICTION, "start.projectile": 2, "engine.H": 12.0, "start.phi_deg": -90.0},
+     [-0.4, -1.0, -1.9, 2.5, -1.0, 4.0, 900.0, 400.0]),
+], ids=["trough", "sling", "dry", "trough-friction", "sling-friction"])
 def test_directional_derivatives_equal_differences_of_the_outputs(fmu_path, unzipped, changes,
                                                                   x):
     """Model exchange: d(outputs)/d(states) from the generated Jacobians against central
@@ -327,15 +367,17 @@ def test_directional_derivatives_equal_differences_of_the_outputs(fmu_path, unzi
     fmu.enterContinuousTimeMode()
     fmu.setTime(0.1)
     outputs = [vr[n] for n in OUTPUT_NAMES[1:]]
-    states = [vr[n] for n in ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d")]
+    states = [vr[n] for n in ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d",
+                              "E_loss_pivot", "E_loss_hinge")]
     x = np.array(x)
+    n = len(states)
     for k, state in enumerate(states):
-        fmu.setContinuousStates((ctypes.c_double * 6)(*x), 6)
+        fmu.setContinuousStates((ctypes.c_double * n)(*x), n)
         exact = np.array(fmu.getDirectionalDerivative(outputs, [state], [1.0]))
         h = 1e-5 * max(1.0, abs(x[k]))
         rows = []
         for sign in (1.0, -1.0):
-            fmu.setContinuousStates((ctypes.c_double * 6)(*(x + sign * h * np.eye(6)[k])), 6)
+            fmu.setContinuousStates((ctypes.c_double * n)(*(x + sign * h * np.eye(n)[k])), n)
             rows.append(np.array(fmu.getReal(outputs)))
         diff = (rows[0] - rows[1]) / (2.0 * h)
         finite = np.isfinite(diff)

@@ -12,8 +12,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.test_fmu import hold_couples_to_own_state
 from trebuchet.fmu.crosscheck import reference
-from trebuchet.fmu.interface import OUTPUT_NAMES
+from trebuchet.fmu.interface import OUTPUT_NAMES, PARAMETERS
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="the build needs gcc")
 REL, REL_ME = 1e-8, 1e-6
@@ -46,7 +47,7 @@ def test_fmi3_model_description(fmu3):
     by_name = {v.name: v for v in md.modelVariables}
     assert by_name["engine.counterweight"].type == "Enumeration"
     assert by_name["theta"].type == "Float64" and by_name["theta"].displayUnit == "deg"
-    assert len(md.eventIndicators) == 3 and len(md.derivatives) == 6
+    assert len(md.eventIndicators) == 3 and len(md.derivatives) == 8
 
 
 @pytest.mark.parametrize("step", [1e-3, 1e-2])
@@ -59,15 +60,34 @@ def test_fmi3_cosimulation_equals_in_process(fmu3, step):
     _assert_equal(result, reference(result["time"], t_stop=1.5), REL)
 
 
-def test_fmi3_model_exchange_equals_in_process(fmu3):
+FRICTION = {"friction.pivot_mu": 0.15, "friction.pivot_radius": 0.1, "friction.hinge_mu": 0.15,
+            "friction.hinge_radius": 0.06}
+
+
+@pytest.mark.parametrize("changes", [{}, FRICTION], ids=["frictionless", "friction"])
+def test_fmi3_model_exchange_equals_in_process(fmu3, changes):
     from fmpy import simulate_fmu
 
     result = simulate_fmu(str(fmu3), stop_time=1.5, output_interval=1e-3,
-                          fmi_type="ModelExchange", solver="CVode", record_events=False)
+                          fmi_type="ModelExchange", solver="CVode", record_events=False,
+                          start_values=changes)
     keep = np.abs(result["time"] - 0.997) > 1e-9  # the release by time: right vs left limit
     frame = pd.DataFrame({n: result[n] for n in result.dtype.names})[keep]
-    ref = reference(frame["time"].to_numpy(), t_stop=1.5)
-    _assert_equal(frame.reset_index(drop=True), ref, REL_ME)
+    values = {**{p.name: p.start for p in PARAMETERS}, **changes}
+    ref = reference(frame["time"].to_numpy(), values, t_stop=1.5)
+    frame = frame.reset_index(drop=True)
+    if changes:
+        hold_couples_to_own_state(frame, ref, values)
+    _assert_equal(frame, ref, REL_ME)
+
+
+def test_fmi3_cosimulation_with_friction_equals_in_process(fmu3):
+    from fmpy import simulate_fmu
+
+    result = simulate_fmu(str(fmu3), stop_time=1.5, output_interval=1e-3,
+                          fmi_type="CoSimulation", start_values=FRICTION)
+    values = {**{p.name: p.start for p in PARAMETERS}, **FRICTION}
+    _assert_equal(result, reference(result["time"], values, t_stop=1.5), REL)
 
 
 def test_fmi3_bad_parameter_error_and_state(fmu3):
@@ -142,16 +162,18 @@ def test_fmi3_directional_derivatives(fmu3):
         fmu.updateDiscreteStates()
         fmu.enterContinuousTimeMode()
         outputs = [vr[n] for n in OUTPUT_NAMES[1:]]
-        x = np.array([-0.6, -1.2, 0.0, 2.0, -3.0, 0.0])
-        states = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d")
+        x = np.array([-0.6, -1.2, 0.0, 2.0, -3.0, 0.0, 0.0, 0.0])
+        states = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "E_loss_pivot",
+                  "E_loss_hinge")
+        n = len(states)
         for name in ("theta", "psi", "theta_d", "psi_d"):  # phi, phi_d: the trough's constraint
             k = states.index(name)
-            fmu.setContinuousStates((ctypes.c_double * 6)(*x), 6)
+            fmu.setContinuousStates((ctypes.c_double * n)(*x), n)
             exact = np.array(fmu.getDirectionalDerivative(outputs, [vr[name]], [1.0]))
             h = 1e-5 * max(1.0, abs(x[k]))
             rows = []
             for sign in (1.0, -1.0):
-                fmu.setContinuousStates((ctypes.c_double * 6)(*(x + sign * h * np.eye(6)[k])), 6)
+                fmu.setContinuousStates((ctypes.c_double * n)(*(x + sign * h * np.eye(n)[k])), n)
                 rows.append(np.array(fmu.getFloat64(outputs)))
             diff = (rows[0] - rows[1]) / (2.0 * h)
             assert np.max(np.abs(exact - diff)) <= 1e-6 * max(1.0, np.max(np.abs(diff))), name

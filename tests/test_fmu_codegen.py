@@ -21,7 +21,8 @@ SAMPLES = 1500
 # (or to 1 where the peak is below 1): 1e-12 for the formulas, the central difference's error
 # for the Jacobians.
 PAPER = {"L1": 6.48, "L2": 0.86, "L_CM": 2.81, "L3": 2.45, "L4": 5.55, "m_b": 622.0,
-         "M": 19100.0, "m": 100.0, "I": 7704.0, "offset": -0.7, "g": 9.82, "H": 4.96}
+         "M": 19100.0, "m": 100.0, "I": 7704.0, "offset": -0.7, "g": 9.82, "H": 4.96,
+         "pivot_friction": 0.015, "hinge_friction": 0.009, "friction_rate": 1e-3}
 RANGES = {  # inputs: uniform between these (rad, rad/s, s, m, m/s, J, ...)
     "th": (-1.2, 1.2), "ps": (-3.5, 1.0), "ph": (-4.5, -1.7), "th_d": (-8.0, 8.0),
     "ps_d": (-15.0, 15.0), "ph_d": (-20.0, 20.0), "rest_m": (-1e3, 1e3),
@@ -30,6 +31,9 @@ RANGES = {  # inputs: uniform between these (rad, rad/s, s, m, m/s, J, ...)
     "r_vy": (0.0, 60.0), "k": (0.0, 0.01), "x": (-100.0, 100.0), "y": (0.0, 50.0),
     "vx": (-80.0, 0.0), "vy": (-50.0, 50.0), "diameter": (0.05, 1.0),
     "drag_coefficient": (0.2, 1.0), "air_density": (1.0, 1.3), "y_m": (0.0, 3.0),
+    "e_P": (0.0, 0.1), "e_H": (0.0, 0.1), "Q_th": (-3e4, 3e4), "Q_ps": (-2e4, 2e4),
+    "n_R": (1e5, 1e6), "n_H": (1e5, 5e5), "p0": (-0.02, 0.02), "p1": (-0.01, 0.01),
+    **{f"p{i}": (-1e6, 1e6) for i in range(2, 6)}, **{f"p{i}": (-0.05, 0.05) for i in range(6, 14)},
 }
 _Q = cg.PARAMETER_NAMES
 
@@ -54,7 +58,7 @@ def _sample(f: cg.Formula, rng: np.random.Generator) -> tuple[list[float], dict[
             q[_Q.index("m")] = 0.0
         x = {n: rng.uniform(*RANGES[n]) for n in f.inputs}
         trough = f.name.startswith(("rates1", "outputs1", "jacobian1", "lift_off",
-                                    "sling_upright"))
+                                    "sling_upright", "friction_pieces1"))
         if not trough:
             return q, x
         if abs((q[_Q.index("H")] + q[_Q.index("L1")] * math.sin(x["th"]))
@@ -71,7 +75,7 @@ def test_generated_c_equals_the_python(formulas_lib, formula):
     out = (ctypes.c_double * len(formula.outputs))()
     for _ in range(SAMPLES):
         q, x = _sample(formula, rng)
-        e = cg.engine_namespace(q, bool(formula.fixed))
+        e = cg.engine_namespace(q, bool(formula.fixed), formula.friction)
         want.append([float(v) for v in formula.build(e, q[_Q.index("g")], q[_Q.index("H")], x,
                                                      math)])
         fn((ctypes.c_double * len(q))(*q), (ctypes.c_double * max(1, len(x)))(*x.values()),
@@ -99,6 +103,10 @@ def test_every_model_formula_is_generated():
         for phase in (1, 2, 3):
             assert {f"rates{phase}_{cw}", f"outputs{phase}_{cw}"} <= names
         assert f"lift_off_{cw}" in names
+        for phase in (1, 2, 3):  # and with friction in the bearings
+            assert {f"rates{phase}_{cw}_friction", f"outputs{phase}_{cw}_friction",
+                    f"friction_pieces{phase}_{cw}"} <= names
+        assert f"lift_off_{cw}_friction" in names
     assert {"sling_upright", "ground", "release_time", "climb", "vacuum_flight", "drag_rates",
             "rest_energies", "projectile"} <= names
     outputs = next(f for f in cg.FORMULAS if f.name == "outputs2_hinged").outputs

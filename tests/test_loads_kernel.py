@@ -70,6 +70,9 @@ def test_row_loads_runs_as_plain_python(horsdal):
                            e, horsdal.g, horsdal.start.H, False, fo.rest_energies(horsdal))
         assert len(row) == len(fo.ROW_COLUMNS)
         for name, v in zip(fo.ROW_COLUMNS, row, strict=True):
+            if name in fo.FRICTION_COLUMNS:  # a frictionless engine's output has none
+                assert name not in out and v == 0.0, name
+                continue
             assert v == pytest.approx(out[name][i], rel=1e-13, abs=1e-9), name
 
 

@@ -96,7 +96,8 @@ def test_step_too_small_is_reported(horsdal):
     with pytest.raises(TrebuchetInputError, match="L3 = nan"):  # an Engine refuses it
         replace(horsdal.engine, L3=math.nan)
     broken = SimpleNamespace(**(asdict(horsdal.engine) | {"L3": math.nan}),
-                             fixed_counterweight=False)  # so the kernel gets it unchecked
+                             fixed_counterweight=False, pivot_friction=0.0, hinge_friction=0.0,
+                             friction_rate=1e-3)  # so the kernel gets it unchecked
     sol = sk.solve_phase(3, broken, horsdal.g, horsdal.start.H, 0.0, 1.0,
                          np.array([horsdal.start.theta, horsdal.start.psi, 0.0, 0.0]), 1e-10)
     assert sol.status == -1

@@ -12,17 +12,34 @@ The public API (docs/interface.md)::
     measured = tb.reconstruct("shot.csv", scene)
 
 Units are SI throughout: m, kg, s, rad, N, N m, W, J.
+
+Each name loads on first use: ``import trebuchet`` itself imports neither numpy nor scipy, so
+that the ``trebuchet`` command (``trebuchet --help``, a usage error) answers at once; the model
+(numpy, pandas, numba) loads with the first ``tb.Scene`` or ``tb.simulate``, the ingest path
+(filterpy, scipy) with the first ``tb.read_log``, ``tb.smooth``, ``tb.reconstruct`` or
+``tb.compare``.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+from trebuchet import interrupts
+
+if interrupts.started_as_command():  # the ``trebuchet`` command: Ctrl-C quiet from here on
+    interrupts.catch_interrupts()
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetDataWarning, TrebuchetInputError
-from trebuchet.model.loads import loads as forces
-from trebuchet.model.scene import Engine, Release, Scene, Start
-from trebuchet.model.simulate import simulate
 from trebuchet.version import __version__
+
+if TYPE_CHECKING:
+    from trebuchet.ingest.compare import compare
+    from trebuchet.ingest.logs.read_log import read_log
+    from trebuchet.ingest.reconstruct import reconstruct
+    from trebuchet.ingest.smoothing.smooth import smooth
+    from trebuchet.model.loads import loads as forces
+    from trebuchet.model.scene import Engine, Release, Scene, Start
+    from trebuchet.model.simulate import simulate
 
 __all__ = [
     "Scene", "Engine", "Start", "Release", "simulate", "forces", "read_log", "smooth",
@@ -31,6 +48,12 @@ __all__ = [
 ]
 
 _LAZY = {
+    "Scene": ("trebuchet.model.scene", "Scene"),
+    "Engine": ("trebuchet.model.scene", "Engine"),
+    "Start": ("trebuchet.model.scene", "Start"),
+    "Release": ("trebuchet.model.scene", "Release"),
+    "simulate": ("trebuchet.model.simulate", "simulate"),
+    "forces": ("trebuchet.model.loads", "loads"),
     "read_log": ("trebuchet.ingest.logs.read_log", "read_log"),
     "smooth": ("trebuchet.ingest.smoothing.smooth", "smooth"),
     "reconstruct": ("trebuchet.ingest.reconstruct", "reconstruct"),
@@ -44,10 +67,12 @@ def __dir__() -> list[str]:
 
 
 def __getattr__(name: str) -> Any:
-    """The ingest path loads on first use (filterpy takes about a second to import)."""
+    """Each public name loads on first use (module doc), and is kept for the next."""
     if name in _LAZY:
         import importlib
 
         module, attr = _LAZY[name]
-        return getattr(importlib.import_module(module), attr)
+        value = getattr(importlib.import_module(module), attr)
+        globals()[name] = value
+        return value
     raise AttributeError(f"module 'trebuchet' has no attribute {name!r}")

@@ -4,6 +4,15 @@ Each room of the package registers its own sub-commands (``register(sub)`` in
 ``trebuchet.model.cli``, ``trebuchet.ingest.cli``, ``trebuchet.fmu.cli``). A
 user's mistake ends with status 2 and one line on stderr that names the file,
 row or key; no traceback, no partial output.
+
+The parser is built from light modules only: a room's ``cli`` module imports nothing heavy at
+its top (no numpy, pandas, scipy, numba), and its commands import the room's machinery when
+they run, so that ``trebuchet --help`` and every usage error answer at once
+(docs/architecture.md, "Adding a sub-command"; ``tests/test_cli_startup.py`` checks it).
+
+Ctrl-C, at any moment (the heavy modules still importing included), prints one line,
+``trebuchet: interrupted``, and ends with status 130 and no traceback; a half-written output is
+removed as after any other failure (:mod:`trebuchet.output`).
 """
 
 from __future__ import annotations
@@ -20,6 +29,16 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from trebuchet.errors import Option, TrebuchetInputError, command_line
+from trebuchet.interrupts import (
+    INTERRUPTED,
+    MESSAGE,
+    catch_interrupts,
+    end_quietly,
+    restore,
+)
+
+if __name__ == "__main__":  # python -m trebuchet.cli (the console script: trebuchet/__init__)
+    catch_interrupts()  # before main() is entered: an interrupt while it imports is quiet too
 
 ROOMS = (
     "trebuchet.model.cli",
@@ -146,6 +165,23 @@ def _quiet_stdout() -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``trebuchet ARGS`` (``argv``; default ``sys.argv[1:]``) and return its status.
+    Ctrl-C is caught while it runs (module doc); called with ``argv`` (a test, a program),
+    the caller's SIGINT handler is put back on return."""
+    previous = catch_interrupts()
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # raised by code, or where the handler could not be set
+        print(MESSAGE, file=sys.stderr)
+        return INTERRUPTED
+    finally:
+        if argv is None:  # the command itself: quiet through the interpreter's shut-down too
+            end_quietly()
+        else:
+            restore(previous)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.formatwarning = _format_warning
@@ -165,9 +201,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"trebuchet: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("trebuchet: interrupted", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":

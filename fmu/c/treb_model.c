@@ -50,10 +50,10 @@ int treb_model_exit_init(TrebModel *m, double start_time, char *msg)
         treb_shot_free(&m->shot);
         m->shot.sc = sc;
         m->phase = sc.projectile == 1 ? 1 : sc.projectile == 2 ? 2 : 3;
-        double x[TREB_NX_STATES] = {sc.theta, sc.psi, sc.phi, 0.0, 0.0, 0.0};
+        double x[TREB_NX_STATES] = {sc.theta, sc.psi, sc.phi, 0.0, 0.0, 0.0, 0.0, 0.0};
         if (m->phase == 1) {  /* the sling on the trough constraint */
             double out[TREB_N_OUTPUTS];
-            treb_outputs_of(&sc, 1, (double[4]){x[0], x[1], 0.0, 0.0}, out);
+            treb_outputs_of(&sc, 1, (double[6]){x[0], x[1], 0.0, 0.0, 0.0, 0.0}, out);
             x[2] = out[TREB_OUT_phi];
         } else if (m->phase == 3) {
             x[2] = 0.0;
@@ -88,13 +88,22 @@ int treb_model_step(TrebModel *m, double t, double h, char *msg)
     return status;
 }
 
-/* The model exchange's phase state as the generated functions take it. */
+/* The model exchange's phase state as the generated functions take it: the phase's angles and
+ * rates, then (with friction) the lost energies in units of treb_energy_scale (the model
+ * exchange's states hold them in J). */
 static void phase_state(const TrebModel *m, double *y)
 {
+    int n = m->phase == 2 ? 6 : 4;
     if (m->phase == 2) {
         memcpy(y, m->x, 6 * sizeof(double));
     } else {
         y[0] = m->x[0]; y[1] = m->x[1]; y[2] = m->x[3]; y[3] = m->x[4];
+    }
+    if (m->shot.sc.friction) {
+        double scale;
+        treb_energy_scale(m->shot.sc.q, NULL, &scale);
+        y[n] = m->x[6] / scale;
+        y[n + 1] = m->x[7] / scale;
     }
 }
 
@@ -108,7 +117,7 @@ int treb_model_outputs(TrebModel *m, char *msg)
         publish(m, phase, out);
         return 0;
     }
-    double y[6], out[TREB_N_OUTPUTS];
+    double y[TREB_MAXN], out[TREB_N_OUTPUTS];
     phase_state(m, y);
     treb_outputs_of(&m->shot.sc, m->phase, y, out);
     if (m->phase == 3 && m->shot.sc.projectile != 3) {
@@ -123,11 +132,12 @@ int treb_model_outputs(TrebModel *m, char *msg)
 
 void treb_model_derivatives(TrebModel *m, double *dx)
 {
-    double y[6], out[TREB_N_OUTPUTS];
+    double y[TREB_MAXN], out[TREB_N_OUTPUTS];
     phase_state(m, y);
     treb_outputs_of(&m->shot.sc, m->phase, y, out);
     dx[0] = out[TREB_OUT_theta_d]; dx[1] = out[TREB_OUT_psi_d]; dx[2] = out[TREB_OUT_phi_d];
     dx[3] = out[TREB_OUT_theta_dd]; dx[4] = out[TREB_OUT_psi_dd]; dx[5] = out[TREB_OUT_phi_dd];
+    dx[6] = out[TREB_OUT_P_loss_pivot]; dx[7] = out[TREB_OUT_P_loss_hinge];
 }
 
 /* Phase I: lift-off margin F_N/(m g), sling upright margin; phase II: projectile height
@@ -135,11 +145,18 @@ void treb_model_derivatives(TrebModel *m, double *dx)
 void treb_model_indicators(TrebModel *m, double *z)
 {
     const TrebScene *sc = &m->shot.sc;
-    double y[6];
+    double y[TREB_MAXN];
     phase_state(m, y);
     z[0] = z[1] = z[2] = 1.0;
     if (m->phase == 1) {
-        (sc->fixed ? treb_lift_off_fixed : treb_lift_off_hinged)(sc->q, y, &z[0]);
+        if (sc->friction) {
+            double x[6] = {y[0], y[1], y[2], y[3], 0.0, 0.0};
+            treb_friction_solve(sc->q, 1, sc->fixed, y, x + 4);
+            (sc->fixed ? treb_lift_off_fixed_friction : treb_lift_off_hinged_friction)(sc->q, x,
+                                                                                        &z[0]);
+        } else {
+            (sc->fixed ? treb_lift_off_fixed : treb_lift_off_hinged)(sc->q, y, &z[0]);
+        }
         treb_sling_upright(sc->q, y, &z[1]);
     } else if (m->phase == 2) {
         treb_ground(sc->q, y, &z[0]);
@@ -152,24 +169,54 @@ void treb_model_indicators(TrebModel *m, double *z)
     }
 }
 
+/* With friction: d(outputs)/d(x) by central differences of the generated outputs (the couples
+ * are solved by Newton's steps, whose derivative is not generated), step FD_STEP relative. */
+#define FD_STEP 1e-5
+static void jacobian_friction(TrebModel *m, double J[TREB_N_OUTPUTS][TREB_NX_STATES])
+{
+    int used[TREB_NX_STATES] = {1, 1, m->phase == 2, 1, 1, m->phase == 2, 1, 1};
+    double x0[TREB_NX_STATES], y[TREB_MAXN], up[TREB_N_OUTPUTS], down[TREB_N_OUTPUTS];
+    memcpy(x0, m->x, sizeof x0);
+    memset(J, 0, sizeof(double) * TREB_N_OUTPUTS * TREB_NX_STATES);
+    for (int j = 0; j < TREB_NX_STATES; j++) {
+        if (!used[j]) continue;
+        double h = FD_STEP * fmax(1.0, fabs(x0[j]));
+        m->x[j] = x0[j] + h;
+        phase_state(m, y);
+        treb_outputs_of(&m->shot.sc, m->phase, y, up);
+        m->x[j] = x0[j] - h;
+        phase_state(m, y);
+        treb_outputs_of(&m->shot.sc, m->phase, y, down);
+        m->x[j] = x0[j];
+        for (int i = 0; i < TREB_N_OUTPUTS; i++) J[i][j] = (up[i] - down[i]) / (2.0 * h);
+    }
+}
+
 /* d(outputs)/d(x) at the model exchange's state (generated Jacobian of the phase; the
  * projectile's flight after release depends on time only). */
 static void jacobian(TrebModel *m, double J[TREB_N_OUTPUTS][TREB_NX_STATES])
 {
     static const int beam[4] = {0, 1, 3, 4};  /* theta, psi, theta_d, psi_d in x */
     const TrebScene *sc = &m->shot.sc;
-    double y[6], x[9], jp[TREB_N_OUTPUTS * 6];
+    double y[TREB_MAXN], x[9], jp[TREB_N_OUTPUTS * 6];
     int n = m->phase == 2 ? 6 : 4;
+    if (sc->friction) {
+        jacobian_friction(m, J);
+        n = 0;  /* the flight's rows below */
+    }
     phase_state(m, y);
-    memcpy(x, y, n * sizeof(double));
-    memcpy(x + n, sc->rest, 3 * sizeof(double));
-    if (m->phase == 1) (sc->fixed ? treb_jacobian1_fixed : treb_jacobian1_hinged)(sc->q, x, jp);
-    else if (m->phase == 2)
-        (sc->fixed ? treb_jacobian2_fixed : treb_jacobian2_hinged)(sc->q, x, jp);
-    else (sc->fixed ? treb_jacobian3_fixed : treb_jacobian3_hinged)(sc->q, x, jp);
-    memset(J, 0, sizeof(double) * TREB_N_OUTPUTS * TREB_NX_STATES);
-    for (int i = 0; i < TREB_N_OUTPUTS; i++)
-        for (int j = 0; j < n; j++) J[i][n == 6 ? j : beam[j]] = jp[i * n + j];
+    if (!sc->friction) {
+        memcpy(x, y, n * sizeof(double));
+        memcpy(x + n, sc->rest, 3 * sizeof(double));
+        if (m->phase == 1)
+            (sc->fixed ? treb_jacobian1_fixed : treb_jacobian1_hinged)(sc->q, x, jp);
+        else if (m->phase == 2)
+            (sc->fixed ? treb_jacobian2_fixed : treb_jacobian2_hinged)(sc->q, x, jp);
+        else (sc->fixed ? treb_jacobian3_fixed : treb_jacobian3_hinged)(sc->q, x, jp);
+        memset(J, 0, sizeof(double) * TREB_N_OUTPUTS * TREB_NX_STATES);
+        for (int i = 0; i < TREB_N_OUTPUTS; i++)
+            for (int j = 0; j < n; j++) J[i][n == 6 ? j : beam[j]] = jp[i * n + j];
+    }
     if (m->phase == 3) {
         static const int flight[5] = {TREB_OUT_x_m, TREB_OUT_y_m, TREB_OUT_vx_m, TREB_OUT_vy_m,
                                       TREB_OUT_E_m};
@@ -181,7 +228,8 @@ static int state_index(unsigned vr)
 {
     static const unsigned states[TREB_NX_STATES] = {TREB_VR_theta, TREB_VR_psi, TREB_VR_phi,
                                                     TREB_VR_theta_d, TREB_VR_psi_d,
-                                                    TREB_VR_phi_d};
+                                                    TREB_VR_phi_d, TREB_VR_E_loss_pivot,
+                                                    TREB_VR_E_loss_hinge};
     for (int k = 0; k < TREB_NX_STATES; k++)
         if (states[k] == vr) return k;
     return -1;
@@ -254,7 +302,8 @@ int treb_model_event(TrebModel *m, int *states_changed, int *time_defined, doubl
             return -1;
         }
         if (z[0] <= 0.0 && m->z_ref[0] > 0.0) {  /* lift-off: the sling takes the projectile */
-            double y[4] = {m->x[0], m->x[1], m->x[3], m->x[4]}, out[TREB_N_OUTPUTS];
+            double y[TREB_MAXN], out[TREB_N_OUTPUTS];
+            phase_state(m, y);
             treb_outputs_of(sc, 1, y, out);
             m->x[2] = out[TREB_OUT_phi];
             m->x[5] = out[TREB_OUT_phi_d];

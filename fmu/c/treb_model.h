@@ -9,7 +9,7 @@
 #include "treb_variables.h"
 
 #define TREB_NZ 3  /* event indicators of the model exchange */
-#define TREB_NX_STATES 6  /* theta, psi, phi, theta_d, psi_d, phi_d */
+#define TREB_NX_STATES 8  /* theta, psi, phi, theta_d, psi_d, phi_d, E_loss_pivot, E_loss_hinge */
 
 typedef struct {
     int cosim;              /* 1 co-simulation, 0 model exchange */

@@ -86,6 +86,40 @@ static int check_start_pose(const TrebScene *sc, double H, char *msg)
     return 0;
 }
 
+/* [friction]: left out (no friction) where the four coefficients and radii are 0, as the
+ * FMU's parameters become a scene (fmu/interface.py); each zero or positive, the smoothing
+ * rate positive. The generated formulas take mu r of pivot and hinge. */
+static int friction(const double *v, TrebScene *sc, char *msg)
+{
+    static const int vr[4] = {TREB_VR_friction_pivot_mu, TREB_VR_friction_pivot_radius,
+                              TREB_VR_friction_hinge_mu, TREB_VR_friction_hinge_radius};
+    static const char *const where[4] = {"[friction] pivot_mu", "[friction] pivot_radius",
+                                         "[friction] hinge_mu", "[friction] hinge_radius"};
+    double x[4], rate = 1e-3;
+    char problem[128];
+    int given = 0;
+    for (int k = 0; k < 4; k++) given = given || v[vr[k]] != 0.0;
+    if (given) {
+        for (int k = 0; k < 4; k++) {
+            if (number(v, vr[k], where[k], msg, &x[k])) return -1;
+            if (x[k] < 0.0) {
+                snprintf(problem, sizeof problem, "= %g: must not be negative", x[k]);
+                return fail(msg, where[k], problem);
+            }
+        }
+        if (positive(v, TREB_VR_friction_smoothing_rate, "[friction] smoothing_rate",
+                     "rate in rad/s", msg, &rate))
+            return -1;
+    } else {
+        x[0] = x[1] = x[2] = x[3] = 0.0;
+    }
+    sc->q[TREB_Q_pivot_friction] = x[0] * x[1];
+    sc->q[TREB_Q_hinge_friction] = x[2] * x[3];
+    sc->q[TREB_Q_friction_rate] = rate;
+    sc->friction = sc->q[TREB_Q_pivot_friction] != 0.0 || sc->q[TREB_Q_hinge_friction] != 0.0;
+    return 0;
+}
+
 int treb_scene_from_values(const double *v, TrebScene *sc, char *msg)
 {
     double L1, L2, L3, L4, m_b, M, m, L_CM, I, H, g, x;
@@ -196,5 +230,6 @@ int treb_scene_from_values(const double *v, TrebScene *sc, char *msg)
             || positive(v, TREB_VR_flight_air_density, "[flight] air_density",
                         "density in kg/m³", msg, &sc->air_density)))
         return -1;
+    if (friction(v, sc, msg)) return -1;
     return treb_scene_rest(sc);
 }

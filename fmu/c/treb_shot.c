@@ -20,6 +20,40 @@
 
 static const double DIRECTION[5] = {-1.0, 1.0, -1.0, 1.0, 1.0};
 
+/* ------------------------------------------------------------------ friction */
+
+typedef void (*Formula)(const double *, const double *, double *);
+static const Formula PIECES[2][3] = {
+    {treb_friction_pieces1_hinged, treb_friction_pieces2_hinged, treb_friction_pieces3_hinged},
+    {treb_friction_pieces1_fixed, treb_friction_pieces2_fixed, treb_friction_pieces3_fixed}};
+static const Formula RATES_FRICTION[2][3] = {
+    {treb_rates1_hinged_friction, treb_rates2_hinged_friction, treb_rates3_hinged_friction},
+    {treb_rates1_fixed_friction, treb_rates2_fixed_friction, treb_rates3_fixed_friction}};
+
+int treb_state_size(const TrebScene *sc, int phase)
+{
+    return (phase == 2 ? 6 : 4) + (sc->friction ? 2 : 0);
+}
+
+/* The generalised forces Q_th, Q_ps (N m) of the bearings' friction couples at the state y of
+ * phase: the generated pieces, TREB_FRICTION_NEWTON_STEPS generated Newton steps, the
+ * generated couples (model/dynamics.py, friction_forces, does the same steps). */
+void treb_friction_solve(const double *q, int phase, int fixed, const double *y, double *Q)
+{
+    double p[TREB_N_PIECES + 2], x[TREB_N_PIECES + 2], n[2];
+    PIECES[fixed != 0][phase - 1](q, y, p);
+    memcpy(x, p, TREB_N_PIECES * sizeof(double));
+    n[0] = p[TREB_N_PIECES];
+    n[1] = p[TREB_N_PIECES + 1];
+    for (int i = 0; i < TREB_FRICTION_NEWTON_STEPS; i++) {
+        x[TREB_N_PIECES] = n[0];
+        x[TREB_N_PIECES + 1] = n[1];
+        treb_friction_newton(q, x, n);
+    }
+    double c[4] = {p[0], p[1], n[0], n[1]};
+    treb_friction_couples(q, c, Q);
+}
+
 /* ------------------------------------------------------------------ right-hand sides */
 
 static void rhs(const TrebDop *d, const double *y, double *dy)
@@ -27,6 +61,11 @@ static void rhs(const TrebDop *d, const double *y, double *dy)
     if (d->kind == TREB_DRAG_FLIGHT) {
         double x[5] = {d->k_drag, y[0], y[1], y[2], y[3]};
         treb_drag_rates(d->q, x, dy);
+    } else if (d->friction) {  /* the state, its lost energies, the couples' Q */
+        double x[TREB_MAXN + 2];
+        memcpy(x, y, d->n * sizeof(double));
+        treb_friction_solve(d->q, d->kind, d->fixed, y, x + d->n);
+        RATES_FRICTION[d->fixed != 0][d->kind - 1](d->q, x, dy);
     } else if (d->kind == 1) {
         (d->fixed ? treb_rates1_fixed : treb_rates1_hinged)(d->q, y, dy);
     } else if (d->kind == 2) {
@@ -41,7 +80,14 @@ static double event(const TrebDop *d, int j, double t, const double *y)
     double out[1], x[7];
     switch (d->ev_kind[j]) {
     case TREB_LIFT_OFF:
-        (d->fixed ? treb_lift_off_fixed : treb_lift_off_hinged)(d->q, y, out);
+        if (d->friction) {
+            memcpy(x, y, 4 * sizeof(double));
+            treb_friction_solve(d->q, 1, d->fixed, y, x + 4);
+            (d->fixed ? treb_lift_off_fixed_friction : treb_lift_off_hinged_friction)(d->q, x,
+                                                                                       out);
+        } else {
+            (d->fixed ? treb_lift_off_fixed : treb_lift_off_hinged)(d->q, y, out);
+        }
         break;
     case TREB_SLING_UPRIGHT:
         treb_sling_upright(d->q, y, out);
@@ -267,6 +313,7 @@ static void dop_start(TrebDop *d, int kind, int n, const TrebScene *sc, double t
     d->kind = kind;
     d->n = n;
     d->fixed = sc->fixed;
+    d->friction = kind != TREB_DRAG_FLIGHT && sc->friction;
     memcpy(d->q, sc->q, sizeof d->q);
     d->k_drag = sc->k_drag;
     d->rtol = kind == TREB_DRAG_FLIGHT ? FLIGHT_RTOL : RTOL;
@@ -416,8 +463,9 @@ static int run_phase(TrebShot *s, int kind, double t0, double t1, const double *
 {
     TrebDop d;
     TrebStep st;
-    int n = kind == 2 ? 6 : 4, first = s->steps.n;
+    int n = treb_state_size(&s->sc, kind), first = s->steps.n;
     dop_start(&d, kind, n, &s->sc, t0, y0, t1, first_step, nev, ev, par);
+    memset(pe->y_end, 0, sizeof pe->y_end);
     pe->which = -1;
     for (;;) {
         int r = dop_step(&d, &st, &pe->t_end, pe->y_end, &pe->which);
@@ -494,13 +542,14 @@ static int sling_and_after(TrebShot *s, char *msg)
     treb_projectile(sc->q, x, out);
     s->release[0] = pe.t_end;
     memcpy(s->release + 1, out, sizeof out);
-    double beam[4] = {y[0], y[1], y[3], y[4]};
+    double beam[6] = {y[0], y[1], y[3], y[4], y[6], y[7]};  /* the lost energies go on */
     int k = s->n_phases++;
     s->phase[k] = 3;
     s->t0[k] = pe.t_end;
     s->t1[k] = INFINITY;
     s->first[k] = s->steps.n;
-    dop_start(&s->open, 3, 4, sc, pe.t_end, beam, 1e300, pe.last_full, 0, NULL, NULL);
+    dop_start(&s->open, 3, treb_state_size(sc, 3), sc, pe.t_end, beam, 1e300, pe.last_full, 0,
+              NULL, NULL);
     s->flight_started = 0;
     s->flight.n = 0;
     return 0;
@@ -510,7 +559,7 @@ int treb_shot_start(TrebShot *s, const TrebScene *sc, char *msg)
 {
     treb_shot_free(s);
     s->sc = *sc;
-    double beam[4] = {sc->theta, sc->psi, 0.0, 0.0};
+    double beam[6] = {sc->theta, sc->psi, 0.0, 0.0, 0.0, 0.0};  /* and the lost energies */
     double sling[2] = {sc->phi, 0.0}, t0 = 0.0, first = 0.0;
     if (sc->projectile == 3) {  /* dry fire: phase III from the start */
         int k = s->n_phases++;
@@ -518,7 +567,7 @@ int treb_shot_start(TrebShot *s, const TrebScene *sc, char *msg)
         s->t0[k] = 0.0;
         s->t1[k] = INFINITY;
         s->first[k] = 0;
-        dop_start(&s->open, 3, 4, sc, 0.0, beam, 1e300, 0.0, 0, NULL, NULL);
+        dop_start(&s->open, 3, treb_state_size(sc, 3), sc, 0.0, beam, 1e300, 0.0, 0, NULL, NULL);
         return 0;
     }
     if (sc->projectile == 1) {
@@ -549,7 +598,7 @@ int treb_shot_start(TrebShot *s, const TrebScene *sc, char *msg)
             return -1;
         }
         s->t_lift = pe.t_end;
-        memcpy(beam, pe.y_end, sizeof beam);
+        memcpy(beam, pe.y_end, treb_state_size(sc, 1) * sizeof(double));
         double out[TREB_N_OUTPUTS];
         treb_outputs_of(sc, 1, beam, out);
         sling[0] = out[TREB_OUT_phi];
@@ -565,16 +614,29 @@ int treb_shot_start(TrebShot *s, const TrebScene *sc, char *msg)
     s->p2_phase_index = s->n_phases;
     s->p2_t0 = t0;
     s->p2_first_step = first;
-    double y2[6] = {beam[0], beam[1], sling[0], beam[2], beam[3], sling[1]};
+    double y2[8] = {beam[0], beam[1], sling[0], beam[2], beam[3], sling[1], beam[4], beam[5]};
     memcpy(s->p2_y, y2, sizeof y2);
     return sling_and_after(s, msg);
 }
 
+static const Formula OUTPUTS_FRICTION[2][4] = {
+    {treb_outputs1_hinged_friction, treb_outputs2_hinged_friction, treb_outputs3_hinged_friction,
+     treb_outputs3_hinged_dry_friction},
+    {treb_outputs1_fixed_friction, treb_outputs2_fixed_friction, treb_outputs3_fixed_friction,
+     treb_outputs3_fixed_dry_friction}};
+
 void treb_outputs_of(const TrebScene *sc, int phase, const double *y, double *out)
 {
-    double x[9];
-    int n = phase == 2 ? 6 : 4;
+    double x[TREB_MAXN + 5];
+    int n = treb_state_size(sc, phase);
     memcpy(x, y, n * sizeof(double));
+    if (sc->friction) {  /* state, lost energies, the couples' Q, energies at rest */
+        treb_friction_solve(sc->q, phase, sc->fixed, y, x + n);
+        memcpy(x + n + 2, sc->rest, 3 * sizeof(double));
+        int k = phase == 3 && sc->projectile == 3 ? 3 : phase - 1;
+        OUTPUTS_FRICTION[sc->fixed != 0][k](sc->q, x, out);
+        return;
+    }
     memcpy(x + n, sc->rest, 3 * sizeof(double));
     if (phase == 1) (sc->fixed ? treb_outputs1_fixed : treb_outputs1_hinged)(sc->q, x, out);
     else if (phase == 2) (sc->fixed ? treb_outputs2_fixed : treb_outputs2_hinged)(sc->q, x, out);
@@ -641,7 +703,7 @@ int treb_shot_outputs(TrebShot *s, double t, int *phase, double *out, char *msg)
     }
     int count = (k == last ? s->steps.n : s->first[k + 1]) - s->first[k];
     double y[TREB_MAXN];
-    int n = s->phase[k] == 2 ? 6 : 4;
+    int n = treb_state_size(&s->sc, s->phase[k]);
     if (count == 0) {
         memcpy(y, s->open.y, n * sizeof(double));
     } else {

@@ -15,7 +15,7 @@
 #define TREB_NS 12     /* DOP853 stages */
 #define TREB_NX 16     /* stages with the dense output's three */
 #define TREB_NP 7      /* interpolating polynomial's coefficients */
-#define TREB_MAXN 6    /* largest state */
+#define TREB_MAXN 8    /* largest state: phase II with the two lost energies of friction */
 #define TREB_MAXEV 3   /* most events at once */
 #define TREB_MAX_SHOT 60.0  /* s: a shot still in the trough or sling by then is refused */
 #define TREB_MSG 512
@@ -32,6 +32,7 @@ typedef struct {
     int fixed;        /* counterweight rigid on the beam */
     int projectile;   /* 1 trough, 2 sling, 3 none */
     int drag;         /* flight with air drag */
+    int friction;     /* friction in the bearings: two more states, the lost energies */
     double theta, psi, phi;             /* start pose, rad */
     int has_time, has_angle;
     double t_release, angle;            /* release rules: s, rad */
@@ -49,7 +50,7 @@ typedef struct {
 
 /* A DOP853 integration in progress (no pointers: it is copied and serialised as bytes). */
 typedef struct {
-    int kind, n, fixed;
+    int kind, n, fixed, friction;
     double q[TREB_NQ];
     double k_drag;
     double rtol, atol;
@@ -78,7 +79,7 @@ typedef struct {
     double release[5];       /* projectile t, x, y, vx, vy at release */
     /* phase II's start, for a release command */
     int p2_phase_index;
-    double p2_t0, p2_first_step, p2_y[6];
+    double p2_t0, p2_first_step, p2_y[TREB_MAXN];
     /* the flight with drag after release */
     TrebSteps flight;
     TrebDop flight_dop;
@@ -96,8 +97,13 @@ size_t treb_shot_serialized_size(const TrebShot *s);
 void treb_shot_serialize(const TrebShot *s, unsigned char *buf);
 int treb_shot_deserialize(TrebShot *s, const unsigned char *buf, size_t size);
 
-/* Formulas by phase and counterweight (generated), used by the model exchange too. */
+/* Formulas by phase and counterweight (generated), used by the model exchange too. A state y
+ * of phase I or III is (theta, psi, theta_d, psi_d), of phase II (theta, psi, phi, theta_d,
+ * psi_d, phi_d); with friction the lost energies e_P, e_H (in units of treb_energy_scale)
+ * follow. */
+int treb_state_size(const TrebScene *sc, int phase);
 void treb_outputs_of(const TrebScene *sc, int phase, const double *y, double *out);
+void treb_friction_solve(const double *q, int phase, int fixed, const double *y, double *Q);
 void treb_flight_at(TrebShot *s, double t, double *out);
 
 #endif

@@ -33,7 +33,7 @@ import pandas as pd
 from scipy.ndimage import median_filter
 from scipy.signal import savgol_filter
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import Option, TrebuchetInputError
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import simulate
@@ -99,16 +99,17 @@ def scene_check(log: pd.DataFrame, scene: Scene | str, *, band: tuple[float, flo
     sweep, duration, _ = measured
     sweep_sim, duration_sim, _ = simulated
     low, high = band
-    for what, got, want, unit, factors in (
-            ("sweep from rest", sweep, sweep_sim, "°", {180 / math.pi: "degrees read as rad",
-                                                         math.pi / 180: "rad read as degrees"}),
-            ("time from its departure", duration, duration_sim, " s", _time_factors(log))):
+    for what, got, want, unit, factors, option in (
+            ("sweep from rest", sweep, sweep_sim, "°",
+             {180 / math.pi: ("degrees read as rad", "deg"),
+              math.pi / 180: ("rad read as degrees", "rad")}, "angle_unit"),
+            ("time from its departure", duration, duration_sim, " s", _time_factors(log),
+             "time_unit")):
         ratio = got / want if want > 0 else math.inf
         if low <= ratio <= high:
             continue
         likely = [why for f, why in factors.items() if 0.7 <= ratio / f <= 1.4]
-        hint = (f": {likely[0]}? State the unit (time_unit= or angle_unit=, "
-                "--time-unit or --angle-unit)" if likely else
+        hint = (f": {likely[0][0]}? State the unit: {Option(option, likely[0][1])}" if likely else
                 "; is the scene the engine filmed, and the log's unit right?")
         raise TrebuchetInputError(
             f"{name}: the beam's {what} to its fastest point is "
@@ -200,12 +201,14 @@ def _name(log: pd.DataFrame) -> str:
     return Path(info.source).name if info is not None else "log"
 
 
-def _time_factors(log: pd.DataFrame) -> dict[float, str]:
-    out = {1000.0: "ms read as s", 1e-3: "s read as ms", 1e6: "µs read as s"}
+def _time_factors(log: pd.DataFrame) -> dict[float, tuple[str, str]]:
+    """Factor by which a wrong time unit stretches the swing: (what happened, the unit)."""
+    out = {1000.0: ("ms read as s", "ms"), 1e-3: ("s read as ms", "s"),
+           1e6: ("µs read as s", "us")}
     info = read_log_info(log)
     if info is not None and info.fps:
-        out[float(info.fps)] = "frame numbers read as s"
-        out[1.0 / float(info.fps)] = "s read as frame numbers"
+        out[float(info.fps)] = ("frame numbers read as s", "frames")
+        out[1.0 / float(info.fps)] = ("s read as frame numbers", "s")
     return out
 
 

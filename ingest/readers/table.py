@@ -197,7 +197,7 @@ def check_row_lengths(lines: list[Line], n_columns: int) -> None:
         if extra:
             raise TrebuchetInputError.at(
                 f"row {line.number}", f"{len(line.cells)} cells, but the header has "
-                f"{n_columns} columns (extra value {extra[0]!r})"
+                f"{n_columns} column{'' if n_columns == 1 else 's'} (extra value {extra[0]!r})"
             )
 
 

@@ -6,19 +6,25 @@ import math
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.errors import Option, TrebuchetInputError
 
 
 def check_fps(fps: float | None) -> float | None:
-    """Return ``fps`` (frames per second) as a float; error unless None or positive and finite."""
+    """Return ``fps`` (frames per second) as a float; error unless None or a frame rate a film
+    of a shot can have (:data:`FRAME_RATE_RANGE`), naming ``fps`` (``--fps``)."""
     if fps is None:
         return None
     try:
         value = float(fps)
     except (TypeError, ValueError):
-        raise TrebuchetInputError(f"fps={fps!r} is not a number") from None
+        raise TrebuchetInputError(f"{Option('fps', fps)}: not a number") from None
     if not math.isfinite(value) or value <= 0:
-        raise TrebuchetInputError(f"fps={fps!r} must be a positive frame rate (1/s)")
+        raise TrebuchetInputError(f"{Option('fps', value)}: must be a positive frame rate (1/s)")
+    low, high = FRAME_RATE_RANGE
+    if not low <= value <= high:
+        raise TrebuchetInputError(f"{Option('fps', value)}: no film of a shot has {value:g} "
+                                  f"frames per s; give the video's frame rate ({low:g} to "
+                                  f"{high:g} per s)")
     return value
 
 

@@ -1,6 +1,9 @@
 """The ``trebuchet compare`` command: a filmed shot against the model of its scene, as
 ``DIR/index.html`` with the paper's figures (measured ±2 sd bands, predicted lines), the
 metrics and events as tables and CSV files, and the advisories; written whole or not at all.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the comparison, the model and
+the figures load when the command runs or :func:`compare_report` is called.
 """
 
 from __future__ import annotations
@@ -12,25 +15,18 @@ import time
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from trebuchet.errors import TrebuchetInputError, cli_command, warn_at_caller
 from trebuchet.ingest.cli import add_reconstruct_arguments, reconstruct_options
-from trebuchet.ingest.compare import (
-    ALIGN_MODES,
-    RELEASE_MODES,
-    CompareOptions,
-    compare,
-    event_table,
-)
-from trebuchet.ingest.logs.result import read_log_info
-from trebuchet.ingest.reconstruction import reconstruction_of
-from trebuchet.model.scene import Scene
-from trebuchet.output import check_target
-from trebuchet.report.page import write_report
+from trebuchet.ingest.settings import ALIGN_MODES, CHANCE_RUNS, RELEASE_MODES
 from trebuchet.report.report_cli import CAPTIONS
-from trebuchet.report.verdict import details_table, events_table, verdict_html
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from trebuchet.ingest.compare import CompareOptions
+    from trebuchet.model.scene import Scene
 
 __all__ = ["register", "compare_report", "ANGLE_MISFIT_ADVISORY"]
 
@@ -66,6 +62,13 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
     first, SI), ``events.csv`` and one PNG per figure of
     :data:`trebuchet.report.figures.FIGURES`. Atomic: after an error there is no report (an
     older one at ``out_dir`` stays). Returns the report's path and the metrics."""
+    from trebuchet.ingest.compare import CompareOptions, compare, event_table
+    from trebuchet.ingest.logs.result import read_log_info
+    from trebuchet.ingest.reconstruction import reconstruction_of
+    from trebuchet.model.scene import Scene
+    from trebuchet.report.page import write_report
+    from trebuchet.report.verdict import details_table, events_table, verdict_html
+
     scene = scene if isinstance(scene, Scene) else Scene.from_toml(scene)
     options = options or CompareOptions()
     say = progress or (lambda message: None)
@@ -103,7 +106,9 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
                        details={"All metrics (units of the figures; SI in metrics.csv)":
                                 details_table(table, scene),
                                 "Events (ms after the log's trigger)": events_table(events)},
-                       files={"metrics.csv": table, "events.csv": events})
+                       files={"metrics.csv": table, "events.csv": events},
+                       inputs=[log if isinstance(log, str | Path) else None, scene.source,
+                               reconstruct_options.get("calibration")])
     return out, table
 
 
@@ -128,9 +133,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--align", choices=ALIGN_MODES, default="fit",
                    help="fit (default): the model's start fitted to the measured angles; "
                         "trigger: the model starts at the log's detected trigger")
-    p.add_argument("--chance-runs", type=int, default=CompareOptions.chance_runs,
+    p.add_argument("--chance-runs", type=int, default=CHANCE_RUNS,
                    metavar="N", help="simulated logs that estimate what chance allows "
-                   f"(default {CompareOptions.chance_runs}; 0: no verdict)")
+                   f"(default {CHANCE_RUNS}; 0: no verdict)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(run=_compare)
 
@@ -159,10 +164,14 @@ def _release_rule(args: argparse.Namespace) -> str:
 
 @cli_command
 def _compare(args: argparse.Namespace) -> int:
+    from trebuchet.ingest.compare import CompareOptions
+    from trebuchet.model.scene import Scene
+    from trebuchet.output import check_target
+
     start = time.monotonic()
     # what can be checked before the progress lines start: the report folder, the log, the scene
     rule = _release_rule(args)
-    check_target(args.output, folder=True)
+    check_target(args.output, folder=True, inputs=[args.log, args.scene, args.calibration])
     if not Path(args.log).is_file():
         raise TrebuchetInputError(f"{args.log}: no such file")
     if not 0 <= args.chance_runs <= 1000:
@@ -191,5 +200,6 @@ def _verdict_line(table: pd.DataFrame) -> str:
     if not differ:
         return (f"model and measurement agree within chance on all {len(table)} quantities"
                 f"{' (' + also[2:] + ')' if also else ''}; " + worst)
-    return (f"model and measurement differ beyond chance in {len(differ)} of {len(table)} "
-            f"quantities ({', '.join(differ)}{also}); " + worst)
+    many = f"all {len(table)}" if len(differ) == len(table) else f"{len(differ)} of {len(table)}"
+    return (f"model and measurement differ beyond chance in {many} quantities "
+            f"({', '.join(differ)}{also}); " + worst)

@@ -4,7 +4,7 @@ Every figure function has the signature ``fig_x(predicted, measured, scene) -> F
 ``predicted`` and ``measured`` are DataFrames of the contract's columns (either may be
 ``None``, not both); measured frames carry ``X_sd`` for every quantity ``X`` and are drawn
 as ±2 sd bands, predicted frames as lines. The scene gives the scales: forces over the
-projectile's weight m g or the counterweight's weight M g, times in ms after the trigger,
+projectile's weight m·g or the counterweight's weight M·g, times in ms after the trigger,
 torques in kN m, powers in kW, energies in kJ. Full points mark lift-off and release.
 Curves run from the trigger to release. Nothing here computes physics: every curve is a
 column of the frames.
@@ -67,7 +67,7 @@ def _frames(predicted: Frame, measured: Frame) -> list[tuple[pd.DataFrame, bool]
 
 
 def _weights(scene: Scene) -> tuple[float, float]:
-    """Projectile and counterweight weights m g and M g, N."""
+    """Projectile and counterweight weights m·g and M·g, N."""
     e = scene.engine
     return e.m * scene.g, e.M * scene.g
 
@@ -130,36 +130,36 @@ def _panel_title(ax: Axes, letter: str, text: str) -> None:
 
 def fig_tension(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     """Sling tension on the projectile ``F_S`` and its component across the beam ``F_S⊥``,
-    in m g, against time (the paper's Fig. "Tension")."""
+    in m·g, against time (the paper's Fig. "Tension")."""
     frames = _frames(predicted, measured)
     mg, _ = _weights(scene)
     fig, (ax,) = _new_figure("Sling tension (full points: lift-off, release)", 1, 1, (7, 4.5))
     _time_panel(ax, frames, [("F_S_abs", "F_S", COLOURS["S"]),
                              ("F_S_perp", "F_S⊥ (across beam)", COLOURS["S_perp"])],
-                scale=mg, ylabel=f"force / (m g)  (m g = {mg:.4g} N)")
-    _annotate(ax, frames, "F_S_abs", mg, "m g", at="release", offset=(-120, 0))
-    _annotate(ax, frames, "F_S_perp", mg, "m g", offset=(-40, -30))
+                scale=mg, ylabel=f"force / (m·g)  (m·g = {mg:.4g} N)")
+    _annotate(ax, frames, "F_S_abs", mg, "m·g", at="release", offset=(-120, 0))
+    _annotate(ax, frames, "F_S_perp", mg, "m·g", offset=(-40, -30))
     return fig
 
 
 def fig_reactions(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
-    """Reaction forces in M g: a) ``|F_H|`` at the hinge, b) ``|F_R|`` at the pivot,
+    """Reaction forces in M·g: a) ``|F_H|`` at the hinge, b) ``|F_R|`` at the pivot,
     c) the horizontal component ``F_R,x`` at the pivot (the paper's Fig. "Reaction")."""
     frames = _frames(predicted, measured)
     _, Mg = _weights(scene)
     fig, axes = _new_figure("Reaction forces (full points: lift-off, release)", 1, 3,
                             (13, 4.2))
-    unit = f"force / (M g)  (M g = {Mg / 1e3:.4g} kN)"
+    unit = f"force / (M·g)  (M·g = {Mg / 1e3:.4g} kN)"
     _time_panel(axes[0], frames, [("F_H_abs", "|F_H|", COLOURS["H"])], scale=Mg, ylabel=unit)
-    _annotate(axes[0], frames, "F_H_abs", Mg, "M g", offset=(-130, -4))
+    _annotate(axes[0], frames, "F_H_abs", Mg, "M·g", offset=(-130, -4))
     _panel_title(axes[0], "a", "at the hinge, on the counterweight")
     _time_panel(axes[1], frames, [("F_R_abs", "|F_R|", COLOURS["R"])], scale=Mg, ylabel=unit)
-    _annotate(axes[1], frames, "F_R_abs", Mg, "M g", offset=(-130, -4))
+    _annotate(axes[1], frames, "F_R_abs", Mg, "M·g", offset=(-130, -4))
     _panel_title(axes[1], "b", "at the pivot, on the beam")
     _time_panel(axes[2], frames, [("F_R_x", "F_R,x", COLOURS["R_x"])], scale=Mg,
-                ylabel="F_R,x / (M g)  (> 0: away from the target)", legend_at="lower left")
-    _annotate(axes[2], frames, "F_R_x", Mg, "M g", at="trough", offset=(-60, 14))
-    _annotate(axes[2], frames, "F_R_x", Mg, "M g", offset=(-130, -4))
+                ylabel="F_R,x / (M·g)  (> 0: away from the target)", legend_at="lower left")
+    _annotate(axes[2], frames, "F_R_x", Mg, "M·g", at="trough", offset=(-60, 14))
+    _annotate(axes[2], frames, "F_R_x", Mg, "M·g", offset=(-130, -4))
     _panel_title(axes[2], "c", "horizontal component at the pivot")
     return fig
 
@@ -177,16 +177,16 @@ def _share(column: str) -> Callable[[pd.DataFrame], np.ndarray]:
 
 def fig_bending(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     """Components across the beam (the paper's Fig. "PerpReac"): a) the bending load
-    ``|F_R⊥|`` in M g; b) the parts ``F_H⊥``, ``F_CM⊥``, ``F_S⊥`` of ``F_R⊥`` in M g;
+    ``|F_R⊥|`` in M·g; b) the parts ``F_H⊥``, ``F_CM⊥``, ``F_S⊥`` of ``F_R⊥`` in M·g;
     c) each part's share of ``F_R⊥`` in % (measured shares as lines without band)."""
     frames = _frames(predicted, measured)
     _, Mg = _weights(scene)
     fig, axes = _new_figure("Forces across the beam (full points: lift-off, release)", 1, 3,
                             (13, 4.2))
-    unit = f"force / (M g)  (M g = {Mg / 1e3:.4g} kN)"
+    unit = f"force / (M·g)  (M·g = {Mg / 1e3:.4g} kN)"
     _time_panel(axes[0], frames, [("F_R_perp", "|F_R⊥|", COLOURS["R"])], scale=Mg,
                 ylabel=unit, absolute=True)
-    _annotate(axes[0], frames, "F_R_perp", Mg, "M g", absolute=True, offset=(-130, -4))
+    _annotate(axes[0], frames, "F_R_perp", Mg, "M·g", absolute=True, offset=(-130, -4))
     _panel_title(axes[0], "a", "bending load at the pivot")
     parts = [("F_H_perp", "F_H⊥", COLOURS["H"]), ("F_CM_perp", "F_CM⊥", COLOURS["CM"]),
              ("F_S_perp", "F_S⊥", COLOURS["S"]), ("F_R_perp", "F_R⊥ (sum)", COLOURS["R"])]
@@ -259,8 +259,8 @@ def _between(frame: pd.DataFrame, start: str | None, end: str) -> pd.DataFrame:
 
 def fig_loci(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     """Loci of forces (the paper's Fig. "ForceLocus"): a) ``F_R`` on the beam and b) ``F_M``
-    on the counterweight in M g; c) ``F_m`` and ``F_S`` on the projectile in the trough and
-    d) ``F_m`` in the sling, in m g. Open circle: t = 0+; full points: lift-off, release."""
+    on the counterweight in M·g; c) ``F_m`` and ``F_S`` on the projectile in the trough and
+    d) ``F_m`` in the sling, in m·g. Open circle: t = 0+; full points: lift-off, release."""
     frames = _frames(predicted, measured)
     mg, Mg = _weights(scene)
     fig, axes = _new_figure("Loci of forces (open: t = 0+; full: lift-off, release)", 2, 2,
@@ -270,8 +270,8 @@ def fig_loci(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     _locus(axes[1], frames, "F_M_x", "F_M_y", Mg, COLOURS["M"], "F_M")
     _panel_title(axes[1], "b", "F_M, total force on the counterweight")
     for ax in axes[:2]:
-        ax.set_xlabel("x component / (M g)")
-        ax.set_ylabel("y component / (M g)")
+        ax.set_xlabel("x component / (M·g)")
+        ax.set_ylabel("y component / (M·g)")
     trough = [(_between(f, None, "lift_off"), m) for f, m in frames
               if "lift_off" in shot_events(f)]
     if trough:
@@ -285,8 +285,8 @@ def fig_loci(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     _locus(axes[3], sling, "F_m_x", "F_m_y", mg, COLOURS["m"], "F_m", from_trigger=False)
     _panel_title(axes[3], "d", "F_m on the projectile in the sling")
     for ax in axes[2:]:
-        ax.set_xlabel("x component / (m g)")
-        ax.set_ylabel("y component / (m g)")
+        ax.set_xlabel("x component / (m·g)")
+        ax.set_ylabel("y component / (m·g)")
     return fig
 
 
@@ -319,7 +319,7 @@ def fig_configurations(predicted: Frame, measured: Frame, scene: Scene) -> Figur
         kind = "measured" if measured_ else "predicted"
         t_b, load = greatest_bending_time(frame)
         draw_engine(axes[0], frame, t_b, scene, measured=measured_, label=kind)
-        notes[0].append(f"{kind}: t = {t_b * 1e3:.0f} ms, |F_R⊥| = {load / Mg:.2f} M g")
+        notes[0].append(f"{kind}: t = {t_b * 1e3:.0f} ms, |F_R⊥| = {load / Mg:.2f} M·g")
         t_r = shot_events(frame).get("release")
         if t_r is None:
             t_r = float(shot_time(frame)[-1])

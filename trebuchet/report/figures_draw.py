@@ -5,7 +5,7 @@ A *frame* is a DataFrame of the contract's columns: a simulated run (``t`` is th
 after the trigger) or a measured one (``t`` is the log's own time, ``t_shot`` the time
 after the trigger, and every quantity ``X`` has its standard deviation in ``X_sd``).
 Nothing here computes physics: every value drawn is a column of the frame, scaled to the
-paper's units (forces over m g or M g, ms, kN m, kW, kJ).
+paper's units (forces over m·g or M·g, ms, kN m, kW, kJ).
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def draw_curve(ax: Axes, frame: pd.DataFrame, column: str, *, scale: float, colo
     """One quantity against time in ms: a line for a predicted frame, the mean and a
     ±2 sd band for a measured one (a line alone when the frame has no ``column_sd``).
 
-    ``scale`` divides the column (m g, M g, 1e3 for kN m, kW, kJ); ``absolute`` draws the
+    ``scale`` divides the column (m·g, M·g, 1e3 for kN m, kW, kJ); ``absolute`` draws the
     magnitude of a signed component.
     """
     t_ms = shot_time(frame) * 1e3

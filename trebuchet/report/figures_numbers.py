@@ -2,8 +2,8 @@
 
 Each function takes a frame of the contract's columns (simulated or measured) and returns
 a small DataFrame for a report. Values come from the frame's columns and ``attrs``; nothing
-is recomputed. Peaks are taken from the trigger to release, in the paper's units (m g,
-M g, kN m, kW, kJ) with the SI value beside them.
+is recomputed. Peaks are taken from the trigger to release, in the paper's units (m·g,
+M·g, kN m, kW, kJ) with the SI value beside them.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ def _row(quantity: str, value_si: float, scale: float, unit: str, si_unit: str,
 def peak_table(frame: pd.DataFrame, scene: Scene) -> pd.DataFrame:
     """Peaks (with their times) and values at release of the quantities the paper quotes.
 
-    Columns: ``quantity``, ``value`` (in ``unit``: m g, M g, kN m, kW, kJ, %), ``t_ms``
+    Columns: ``quantity``, ``value`` (in ``unit``: m·g, M·g, kN m, kW, kJ, %), ``t_ms``
     (time after the trigger), ``value_SI`` (N, N m, W, J), ``SI_unit``. A quantity whose
     column the frame lacks is left out.
     """
@@ -63,14 +63,14 @@ def peak_table(frame: pd.DataFrame, scene: Scene) -> pd.DataFrame:
         if hit is not None:
             rows.append(_row(label, hit[1], scale, unit, si, hit[0]))
 
-    at_release("F_S_abs", "sling tension F_S at release", mg, "m g", "N")
-    extreme("F_S_abs", "greatest sling tension F_S", mg, "m g", "N")
-    extreme("F_S_perp", "greatest F_S across the beam", mg, "m g", "N")
-    extreme("F_H_abs", "greatest hinge force |F_H|", Mg, "M g", "N")
-    extreme("F_R_abs", "greatest pivot reaction |F_R|", Mg, "M g", "N")
-    extreme("F_R_perp", "greatest bending load |F_R⊥|", Mg, "M g", "N", absolute=True)
-    extreme("F_R_x", "greatest F_R,x (away from target)", Mg, "M g", "N")
-    extreme("F_R_x", "least F_R,x (toward target)", Mg, "M g", "N", how="min")
+    at_release("F_S_abs", "sling tension F_S at release", mg, "m·g", "N")
+    extreme("F_S_abs", "greatest sling tension F_S", mg, "m·g", "N")
+    extreme("F_S_perp", "greatest F_S across the beam", mg, "m·g", "N")
+    extreme("F_H_abs", "greatest hinge force |F_H|", Mg, "M·g", "N")
+    extreme("F_R_abs", "greatest pivot reaction |F_R|", Mg, "M·g", "N")
+    extreme("F_R_perp", "greatest bending load |F_R⊥|", Mg, "M·g", "N", absolute=True)
+    extreme("F_R_x", "greatest F_R,x (away from target)", Mg, "M·g", "N")
+    extreme("F_R_x", "least F_R,x (toward target)", Mg, "M·g", "N", how="min")
     extreme("torque", "greatest torque N", 1e3, "kN m", "N m")
     extreme("torque", "least torque N", 1e3, "kN m", "N m", how="min")
     extreme("P_m", "greatest power on projectile P_m", 1e3, "kW", "W")

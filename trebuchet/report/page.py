@@ -166,7 +166,8 @@ def write_report(out_dir: str | Path, figures: Mapping[str, Figure | Callable[[]
                  progress: Callable[[str], None] | None = None,
                  lead_html: str | None = None,
                  details: Mapping[str, pd.DataFrame] | None = None,
-                 files: Mapping[str, pd.DataFrame] | None = None) -> Path:
+                 files: Mapping[str, pd.DataFrame] | None = None,
+                 inputs: Iterable[str | Path | None] = ()) -> Path:
     """Write ``out_dir/index.html``, one ``<name>.png`` per figure and ``<name>.csv`` for each
     table named in ``csv_tables``, atomically: the directory appears complete or not at all
     (an existing one is replaced only on success).
@@ -201,6 +202,9 @@ def write_report(out_dir: str | Path, figures: Mapping[str, Figure | Callable[[]
     files : {file name: DataFrame}, optional
         Written as CSV beside the page (``metrics.csv``) without being shown, linked from
         "Details" as the ``csv_tables`` are.
+    inputs : paths, optional
+        The files the report was made from: refused as ``out_dir`` or inside it
+        (:func:`trebuchet.output.atomic_dir`).
 
     Returns
     -------
@@ -219,7 +223,7 @@ def write_report(out_dir: str | Path, figures: Mapping[str, Figure | Callable[[]
         _check_name(name, "table")
         if name not in tables:
             raise ValueError(f"csv_tables names {name!r}, which is not among the tables")
-    with atomic_dir(out_dir) as tmp:
+    with atomic_dir(out_dir, inputs=inputs) as tmp:
         pngs = []
         for name, item in figures.items():
             if progress is not None:

@@ -1,5 +1,8 @@
 """The ``trebuchet report`` command: the paper's figures and key numbers for a simulated
-scene, as ``DIR/index.html`` with one PNG per figure, written whole or not at all."""
+scene, as ``DIR/index.html`` with one PNG per figure, written whole or not at all.
+
+Light to import (docs/architecture.md, "Adding a sub-command"): the model and the figures load
+when the command runs or :func:`report_scene` is called."""
 
 from __future__ import annotations
 
@@ -9,24 +12,23 @@ import time
 import warnings
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from trebuchet.errors import Option, TrebuchetInputError, cli_command, warn_at_caller
-from trebuchet.model.scene import Scene
-from trebuchet.model.simulate import simulate
-from trebuchet.output import check_target
-from trebuchet.report.figures_numbers import event_table, flight_table, peak_table
-from trebuchet.report.page import write_report
+
+if TYPE_CHECKING:
+    from trebuchet.model.scene import Scene
 
 __all__ = ["register", "report_scene", "CAPTIONS"]
 
 CAPTIONS = {
     "tension": "Sling tension F_S and its component across the beam F_S⊥, in units of the "
-               "projectile's weight m g (paper: Fig. Tension).",
+               "projectile's weight m·g (paper: Fig. Tension).",
     "reactions": "a) hinge force |F_H|, b) pivot reaction |F_R|, c) its horizontal component, "
-                 "in units of the counterweight's weight M g (paper: Fig. Reaction).",
+                 "in units of the counterweight's weight M·g (paper: Fig. Reaction).",
     "bending": "Forces across the beam: a) the bending load |F_R⊥|, b) its parts from hinge, "
                "centre of mass and sling, c) their shares (paper: Fig. PerpReac).",
-    "loci": "Loci of F_R, F_M (M g) and of F_m, F_S (m g) (paper: Fig. ForceLocus).",
+    "loci": "Loci of F_R, F_M (M·g) and of F_m, F_S (m·g) (paper: Fig. ForceLocus).",
     "torque": "Torque on the beam: contributions of hinge, gravity at the centre of mass and "
               "spigot, and the total N, kN m (paper: Fig. Torque).",
     "configurations": "The engine at the greatest bending load and at release "
@@ -46,6 +48,10 @@ def report_scene(scene: Scene, out_dir: str | Path, *, dt: float = 1e-3,
     of :data:`trebuchet.report.figures.FIGURES`, ``peaks.csv``); ``dt`` is the output step, s.
     Warnings of the model (slack sling, ...) are shown in the report as advisories and
     passed on."""
+    from trebuchet.model.simulate import simulate
+    from trebuchet.report.figures_numbers import event_table, flight_table, peak_table
+    from trebuchet.report.page import write_report
+
     if not 0.0 < dt <= 0.1:
         raise TrebuchetInputError(f"{Option('dt', dt)}: the output step must lie in "
                                   "(0, 0.1] s")
@@ -69,11 +75,13 @@ def report_scene(scene: Scene, out_dir: str | Path, *, dt: float = 1e-3,
     intro = (f"Simulated shot of {scene.source}: {len(run)} rows every {dt * 1e3:g} ms, "
              f"solver {diag.get('method', '?')} at rtol {diag.get('rtol', float('nan')):g}, "
              f"relative energy drift {diag.get('energy_drift_rel', float('nan')):.2g}. "
-             "Times after the trigger; forces over the projectile's weight m g or the "
-             "counterweight's weight M g.")
+             "Times after the trigger; forces over the projectile's weight m·g "
+             f"({scene.engine.m * scene.g / 1e3:.4g} kN) or the counterweight's weight M·g "
+             f"({scene.engine.M * scene.g / 1e3:.4g} kN).")
     return write_report(out_dir, figures, tables, advisories,
                         title=f"trebuchet report: {Path(scene.source).name}",
-                        captions=CAPTIONS, intro=intro, csv_tables=["peaks"], progress=say)
+                        captions=CAPTIONS, intro=intro, csv_tables=["peaks"], progress=say,
+                        inputs=[scene.source])
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -85,15 +93,19 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "all.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("-o", "--output", required=True, help="report directory to write")
-    p.add_argument("--dt", type=float, default=1e-3, help="output step in s (default 0.001)")
+    p.add_argument("--dt", type=float, default=1e-3,
+                   help="output step in s, 1e-6 to 0.1 (default 0.001)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(run=_report)
 
 
 @cli_command
 def _report(args: argparse.Namespace) -> int:
+    from trebuchet.model.scene import Scene
+    from trebuchet.output import check_target
+
     start = time.monotonic()
-    check_target(args.output, folder=True)
+    check_target(args.output, folder=True, inputs=[args.scene])
     scene = Scene.from_toml(args.scene)
     out = report_scene(scene, args.output, dt=args.dt,
                        progress=None if args.quiet else _stderr)

@@ -1,7 +1,7 @@
 """The compare report's first screen: a verdict per quantity and tables in the figures' units.
 
 The metrics (:func:`trebuchet.ingest.compare.metrics`, SI, fractions) are shown as people
-read the figures: forces in m g (the sling) or M g (beam and counterweight), torque in
+read the figures: forces in m·g (the sling) or M·g (beam and counterweight), torque in
 kN m, power in kW, energy in kJ, times in ms after the log's trigger, fractions in %.
 The verdict says for each quantity whether the prediction leaves the measured ±2 sd band
 no more often than chance allows (``chance_limit``; see
@@ -41,8 +41,15 @@ def display_scale(quantity: str, scene: Scene) -> tuple[float, str]:
     """``(divisor, unit)`` that turns the SI value of ``quantity`` into the figures' unit."""
     kind = DISPLAY.get(quantity, (quantity, ""))[1]
     e = scene.engine
-    return {"mg": (e.m * scene.g, "m g"), "Mg": (e.M * scene.g, "M g"),
+    return {"mg": (e.m * scene.g, "m·g"), "Mg": (e.M * scene.g, "M·g"),
             "kN m": (1e3, "kN m"), "kW": (1e3, "kW"), "kJ": (1e3, "kJ")}.get(kind, (1.0, ""))
+
+
+def _kn(value_si: float, unit: str) -> str:
+    """`` (497 kN)`` beside a force in m·g or M·g (which could be read as megagrams)."""
+    if unit not in ("m·g", "M·g") or value_si is None or not math.isfinite(value_si):
+        return ""
+    return f" ({_num(value_si / 1e3)}\u00a0kN)"  # no break inside "(480 kN)"
 
 
 def _num(value: float, digits: int = 3) -> str:
@@ -108,8 +115,10 @@ def verdict_table(table: pd.DataFrame, scene: Scene, release_ms: float | None = 
         rows.append({
             "quantity": name,
             "peak measured ± sd": (f"{_num(r['measured_peak'] / scale)} ± "
-                                   f"{_num(r['measured_peak_sd'] / scale, 2)} {unit}"),
-            "peak predicted": f"{_num(r['predicted_peak'] / scale)} {unit}",
+                                   f"{_num(r['measured_peak_sd'] / scale, 2)} {unit}"
+                                   + _kn(r["measured_peak"], unit)),
+            "peak predicted": (f"{_num(r['predicted_peak'] / scale)} {unit}"
+                               + _kn(r["predicted_peak"], unit)),
             "outside ±2 sd": _pct(r["outside_band_fraction"]),
             "chance allows": ("≤ " + _pct(r["chance_limit"])
                               if math.isfinite(r.get("chance_limit", math.nan)) else "–"),
@@ -139,6 +148,7 @@ def verdict_html(table: pd.DataFrame, scene: Scene, *, release_ms: float | None 
         border = [DISPLAY.get(q, (q, ""))[0] for q in table.loc[verdicts == "borderline",
                                                                "quantity"]]
         n = len(table)
+        others = n - len(differ) - len(border)
         if not differ:
             head = ("Model and measurement agree: "
                     + (f"every one of the {n} quantities stays within the measured ±2 sd band "
@@ -149,11 +159,12 @@ def verdict_html(table: pd.DataFrame, scene: Scene, *, release_ms: float | None 
                        "for a single quantity), where the table says."))
             css = "agree"
         else:
-            head = (f"Model and measurement differ in {len(differ)} of {n} quantities "
-                    f"({', '.join(differ)}): the prediction leaves the measured ±2 sd band "
-                    f"more often than chance allows, where the table says"
+            head = ("Model and measurement differ in "
+                    + (f"all {n}" if len(differ) == n else f"{len(differ)} of {n}")
+                    + f" quantities ({', '.join(differ)}): the prediction leaves the measured "
+                    "±2 sd band more often than chance allows, where the table says"
                     + (f"; {', '.join(border)} borderline" if border else "")
-                    + "; the others agree.")
+                    + {0: ".", 1: "; the other agrees."}.get(others, "; the others agree."))
             css = "differ"
     n_eff = table["effective_samples"] if "effective_samples" in table else None
     span = (f"{n_eff.min():.0f} to {n_eff.max():.0f}" if n_eff is not None
