@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.readers.table import DECIMAL
 from trebuchet.user_files import read_user_file
 
 from .camera import apply_homography, homography_from_points
@@ -63,8 +64,6 @@ OPENCV_COEFFICIENTS = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
 MAX_CALIBRATION_BYTES = 1 << 20
 #: Largest magnitude of any number of a calibration file (px, m, lens coefficients).
 MAX_MAGNITUDE = 1e9
-#: A number in text as CSV tools read it: ASCII digits, a decimal point, an exponent.
-DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 #: Length units of the plane points' header, in m.
 PLANE_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 

@@ -7,23 +7,26 @@ off, a tracker's wrong match on one frame) is no measurement of the shot: absorb
 smoother, one such cell raised the noise estimate from 0.31° to 5° and moved the peak
 loads by 6 %.
 
-The test, per angle, over its present values:
+The test, per angle, over its present values (:func:`single_frame_outliers`):
 
-* each value is predicted from its two neighbours on either side by the cubic through
-  them (Lagrange, at the frames' times; neighbours more than :data:`SPAN` frame periods
-  apart give no prediction). For smooth motion the miss is the noise (its sd about
-  1.39 σ: ``√(1 + 34/36)``) plus the fourth derivative's h⁴/6, far below a degree at the
-  frame rates of a film;
-* the miss is measured against the noise: the larger of the robust sd of every miss
-  (1.4826 × the median absolute deviation) and of the misses in the :data:`WINDOW`
-  frames around (where fast motion or blur makes every miss larger);
+* each value is predicted from its present neighbours, two on either side, by the cubic
+  through them (Lagrange, at the frames' times; the nearest neighbour on a side counts
+  within :data:`REACH` frame periods, the next within 1.5 times that: one absent frame is
+  bridged), by a lower polynomial where a side has one, and at a track's ends by the line
+  through two on one side (:func:`misses`). Each miss is divided by its prediction's noise
+  gain ``√(1 + Σ w²)`` (1.39 for the cubic): for smooth motion it is then the noise, plus
+  the fourth derivative's h⁴/6, far below a degree at the frame rates of a film;
+* the noise sd is robust (1.4826 × the median |miss|): the larger of the whole angle's and
+  of the :data:`WINDOW` frames around (where fast motion or blur makes every miss
+  larger), never below :data:`FLOOR`;
 * a value that misses by more than :data:`THRESHOLD` such sds is a single-frame outlier
-  when, with it left out, its neighbours agree with each other (their own misses below
-  half the threshold): a step, a real kink of the motion or a run of bad frames moves
-  its neighbours too and is left alone.
+  when, left out, its neighbours agree with each other (each within half the threshold),
+  and when no neighbour, left out instead, explains the disagreement as well: a step, a
+  real kink of the motion or a run of bad frames moves its neighbours too, and is left
+  alone.
 
-The largest is taken out first and the test repeated. Each outlier becomes a gap (NaN),
-reported with its row, its miss and the noise.
+Candidates are taken largest first, each judged on the values left. Each outlier becomes a
+gap (NaN), reported with its row, its miss and the noise.
 """
 
 from __future__ import annotations
