@@ -12,11 +12,10 @@ from trebuchet.ingest.kalman.batch import (
     FilterResult,
     SmootherResult,
     StepModel,
-    backward_sums,
     error_covariance,
-    refiltered,
+    residual_quadratics,
+    resmoothed,
     simulated_model_runs,
-    smoothed_states,
 )
 from trebuchet.ingest.smoothing.problem import (
     SmoothingProblem,
@@ -41,27 +40,25 @@ def residual_moments(steps: StepModel, filt: FilterResult, Z: np.ndarray, valid:
     half = A * draws
     many = np.tile(np.arange(A), 2 * draws)
     drawn = np.arange(2 * half)
-    noise = np.where((drawn >= half)[:, None], (lam * r2[:, None])[many], 0.0)
+    # the draws' process noise: none for the first half, the model's for the second
+    noise = np.vstack([np.zeros((1, n)), lam * r2[:, None]])
     kicks = np.where(drawn < half, kick[many], 0.0)
     meas = np.where(drawn < half, r2[many], 0.0)
     z = simulated_model_runs(steps, noise, kicks, meas, prior[many] * (meas > 0)[:, None, None],
-                             rng)
-    ok = valid[many]
-    z = np.where(ok, z, 0.0)
-    fits = filt.series(many)
+                             rng, src=np.where(drawn < half, 0, 1 + many))
+    z = np.where(valid[many], z, 0.0)
     zero = np.zeros((2 * half, steps.k))
-    fit = smoothed_states(steps, refiltered(steps, fits, z, ok, zero), ok)[:, :, 0].T
-    # the data's residual and the draws' in one batch
+    z -= resmoothed(steps, filt, z, valid, zero, src=many, states=1)[:, :, 0].T
+    # the data's residual and the draws' in one batch: ρ's quadratic forms, and those of
+    # the sum of each noise draw and its process-noise draw (ρ is linear in the data)
     everyone = np.concatenate([np.arange(A), many])
-    res = np.concatenate([np.where(valid, Z - fitted, 0.0), z - fit])
-    ok = valid[everyone]
-    rho = backward_sums(steps, refiltered(steps, filt.series(everyone), res, ok,
-                                          np.zeros((A + 2 * half, steps.k))), ok)
-    stat = np.einsum("nai,nij,naj->na", rho, steps.Q0, rho, optimize=True) * lam[everyone].T
+    res = np.concatenate([np.where(valid, Z - fitted, 0.0), z])
+    pairs = np.stack([A + np.arange(half), A + half + np.arange(half)], axis=1)
+    quad, pair_quad = residual_quadratics(steps, filt, res, valid, everyone, pairs)
+    stat = quad * lam[everyone].T
     null = stat[:, A:A + half].reshape(n, draws, A).mean(axis=1)
     slope = stat[:, A + half:].reshape(n, draws, A).mean(axis=1)
-    both = rho[:, A:A + half] + rho[:, A + half:]  # ρ is linear in the data
-    alt = np.einsum("nai,nij,naj->na", both, steps.Q0, both, optimize=True) * lam[many[:half]].T
+    alt = pair_quad * lam[many[:half]].T
     return stat[:, :A], null, slope, alt.reshape(n, draws, A)
 
 
@@ -94,9 +91,8 @@ def calibrated_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: n
     band_scale = np.ones((A, n))
     used = fit.filt.series(np.arange(A))
     own = SmootherResult(sm.x[:, :A], sm.P[:, :A], sm.r[:, :A], sm.N[:, :A])
-    true_noise = kick[None, :, None, None] * steps.G[:, None]
     E0, R0 = error_covariance(steps, used, own, valid, np.array([e.r2 for e in est]),
-                              true_noise, p.P0, parts=True)
+                              np.zeros(A), kick, p.P0, parts=True)
     if settings.band_variance == "noise":
         return E0, band_scale
     # how much of the white noise the data show, frame by frame: the backward
@@ -151,7 +147,7 @@ def bias_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: np.ndar
     used = fit.filt.series(np.arange(p.A))
 
     def again(series: np.ndarray, prior: np.ndarray) -> np.ndarray:
-        return smoothed_states(steps, refiltered(steps, used, series, valid, prior), valid)
+        return resmoothed(steps, used, series, valid, prior)
 
     bias = again(xs[:, :, 0].T, p.x0) - xs
     step_bias = bias
