@@ -30,7 +30,7 @@ Units: SI (s, rad, rad/s, rad/s², N, N m, W, J, m, m/s).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,7 +45,7 @@ from trebuchet.errors import (
     check_choice,
     warn_at_caller,
 )
-from trebuchet.ingest.advisory import resolution_advisories
+from trebuchet.ingest.advisory import ADVISED, resolution_advisories
 from trebuchet.ingest.calibrated_angles import calibrated_log, widened_by_calibration
 from trebuchet.ingest.events.lift_off import (
     lift_off_sd,
@@ -61,7 +61,7 @@ from trebuchet.ingest.events.release_model import (
     scene_doubt,
 )
 from trebuchet.ingest.events.release_sources import TrackEndRelease, release_at_track_end
-from trebuchet.ingest.events.sling_continuation import continued_sling
+from trebuchet.ingest.events.sling_continuation import continued_sling, release_horizon
 from trebuchet.ingest.events.stone_flight import points_stone_release
 from trebuchet.ingest.geometry.user_calibration import read_calibration
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
@@ -81,10 +81,10 @@ from trebuchet.ingest.smoothing.smooth import (
     validated_log,
 )
 from trebuchet.ingest.systematic_angles import systematic_angles, with_systematic_angles
-from trebuchet.ingest.uncertainty import propagate
+from trebuchet.ingest.uncertainty import CHUNK_ROWS, propagate
 from trebuchet.ingest.user_calibrated import posed_log
 from trebuchet.model import dynamics as dyn
-from trebuchet.model.loads import loads
+from trebuchet.model.loads import load_columns
 from trebuchet.model.scene import Scene, as_scene
 
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
@@ -254,10 +254,11 @@ def shot_phases(t: np.ndarray, scene: Scene, trigger: float | None, lift_off: fl
 
 
 def _evaluate(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
-              trough: str) -> pd.DataFrame:
-    """``loads`` on ``state`` with rest rows (phase 0) as the scene's first phase at zero
-    rates and accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ
-    in the trough."""
+              trough: str) -> dict[str, np.ndarray]:
+    """The columns of ``loads`` (pandas-free: :func:`~trebuchet.model.loads.load_columns`)
+    on ``state`` with rest rows (phase 0) as the scene's first phase at zero rates and
+    accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ in the
+    trough."""
     cols = {c: state[c].to_numpy(dtype=float) for c in state.columns}
     rest = phase == 0
     first = scene.phases[0]
@@ -279,13 +280,24 @@ def _evaluate(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
                 values[sel] = v
                 cols[col] = values
     cols["phase"] = run_phase
-    frame = pd.DataFrame(cols, index=state.index, copy=False)
     try:
-        out = loads(frame, scene, form=form)
+        out = load_columns(cols, scene, form=form)
     except ValueError as exc:  # phase-3 rows without a sling row before them
         raise TrebuchetInputError(f"reconstruct: {exc}") from None
     out["phase"] = phase
     return out
+
+
+def _flight_carry(phase: np.ndarray) -> Callable[[int, int], list[int]]:
+    """``carry`` of a chunked propagation: rows in flight (phase 3) need the last row in the
+    sling (the flight starts from its state) in their chunk."""
+    held = np.flatnonzero(phase != 3)
+    last = int(held[-1]) if held.size else -1
+
+    def carry(lo: int, hi: int) -> list[int]:
+        return [last] if 0 <= last < lo and bool(np.any(phase[lo:hi] == 3)) else []
+
+    return carry
 
 
 def _state(est: pd.DataFrame) -> pd.DataFrame:
@@ -345,7 +357,7 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     t = state["t"].to_numpy()
     trial = shot_phases(t, scene, trigger, None, None)
     trial[trial == 3] = 1
-    fn = _evaluate(state, trial, scene, options.form, options.trough)["F_N"].to_numpy()
+    fn = _evaluate(state, trial, scene, options.form, options.trough)["F_N"]
     when = lift_off_time(t, fn, trigger, release)
     if when is None:
         return None, float("nan")
@@ -362,7 +374,7 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     if np.isfinite(offset) and offset != 0.0:  # the angles' common offset moves F_N's zero
         shifted = state.assign(theta=state["theta"].to_numpy() - offset)
         fn_shifted = _evaluate(shifted, trial, scene, options.form, options.trough)["F_N"]
-        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted.to_numpy(), trigger,
+        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted, trigger,
                                                         release))
     return when, sd
 
@@ -440,8 +452,10 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         sources["lift_off"] = f"no trough (projectile {scene.projectile!r})"
     phase = shot_phases(t, scene, trigger, lift, release)
 
-    prop = propagate(lambda s: _evaluate(s, phase, scene, options.form, options.trough),
-                     state, cov, order=propagation_order(options))
+    prop = propagate(lambda s: _evaluate(s, phase[s.index.to_numpy()], scene, options.form,
+                                         options.trough),
+                     state, cov, order=propagation_order(options), chunk=CHUNK_ROWS,
+                     carry=_flight_carry(phase), order_names=list(ADVISED))
     ev_var = (_event_variance(t, trigger, event_sd["trigger"], prop.value)
               + _event_variance(t, release, event_sd["release"], prop.value))
     sd = np.sqrt(prop.sd ** 2 + ev_var)
@@ -468,7 +482,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     col = {c: j for j, c in enumerate(prop.names)}
     advice = resolution_advisories(
         t, moving, {c: prop.value[:, j] for c, j in col.items()},
-        {c: sd[:, j] for c, j in col.items()}, {c: prop.by_order[:, :, j] for c, j in col.items()},
+        {c: sd[:, j] for c, j in col.items()}, {c: prop.orders(c) for c in prop.order_names},
         {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
         options.resolution_fraction, lines=lines)
     validity = geometry_findings(t, phase, result["theta"].to_numpy(), result["psi"].to_numpy(),
@@ -565,17 +579,17 @@ def _model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
 def _with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
                           until: float | None = None) -> pd.DataFrame:
     """``est`` with φ, φ̇, φ̈ and their sd (and the smoothing's ``cov["phi"]``) filled on the rows
-    after the sling track's last row ``last`` (up to the time ``until``, s; all rows if
-    None) by the sling's pendulum driven by the smoothed beam
-    (:mod:`.events.sling_continuation`)."""
-    cont = continued_sling({c: est[c].to_numpy(dtype=float) for c in
-                            ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")},
-                           scene, last, smoothing_of(est).cov["phi"][last][:3, :3])
-    keep = np.ones(cont.rows.size, bool) if until is None else (
-        est["t"].to_numpy(dtype=float)[cont.rows] <= until)
-    return with_angle_rows(est, "phi", cont.rows[keep],
-                           (cont.phi[keep], cont.phi_d[keep], cont.phi_dd[keep]),
-                           cont.cov[keep])
+    after the sling track's last row ``last`` (up to the time ``until``, s; if None as far
+    as the release check needs, :func:`.events.sling_continuation.release_horizon`) by the
+    sling's pendulum driven by the smoothed beam (:mod:`.events.sling_continuation`)."""
+    cols = {c: est[c].to_numpy(dtype=float) for c in
+            ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")}
+    if until is None:
+        until = release_horizon(cols["t"], cols["theta_d"], last,
+                                smoothing_of(est).events.get("trigger"))
+    cont = continued_sling(cols, scene, last, smoothing_of(est).cov["phi"][last][:3, :3],
+                           until=until)
+    return with_angle_rows(est, "phi", cont.rows, (cont.phi, cont.phi_d, cont.phi_dd), cont.cov)
 
 
 def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFrame,

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from trebuchet.ingest.events.driven_pendulum import driven_pendulum
+from trebuchet.ingest.events.driven_pendulum import MAX_GAP_FRAMES, driven_pendulum
 from trebuchet.ingest.smoothing.result import smoothing_of, with_angle_rows, with_smoothing
 from trebuchet.model.dynamics import counterweight_pendulum_psi_dd
 from trebuchet.model.scene import Scene
@@ -45,6 +45,7 @@ class CounterweightContinuation:
     psi_dd: np.ndarray
     cov: np.ndarray
     start: int
+    gap: float | None = None
 
 
 def continued_counterweight(est: dict[str, np.ndarray], scene: Scene, last: int,
@@ -68,7 +69,7 @@ def continued_counterweight(est: dict[str, np.ndarray], scene: Scene, last: int,
                                                                    g, np),
         theta_dd_sd=theta_dd_sd, seed=seed)
     return CounterweightContinuation(run.rows, run.angle, run.rate, run.acc, run.cov,
-                                     run.start)
+                                     run.start, run.gap)
 
 
 def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.ndarray
@@ -101,4 +102,7 @@ def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.nd
             f"{t[rows[-1]]:.4f} s: psi is carried on by the counterweight's pendulum driven "
             "by the smoothed beam (sd at the end "
             f"{np.degrees(np.sqrt(cont.cov[keep][-1, 0, 0])):.2g} deg)")
+    if cont.gap is not None:
+        note += (f", not across the gap in the log's rows after {cont.gap:.4f} s (longer than "
+                 f"{MAX_GAP_FRAMES:g} frames): psi is NaN from there on")
     return with_smoothing(out, smoothing_of(out).noted(note))
