@@ -259,7 +259,7 @@ def _evaluate(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
     on ``state`` with rest rows (phase 0) as the scene's first phase at zero rates and
     accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ in the
     trough."""
-    cols = {c: state[c].to_numpy(dtype=float) for c in state.columns}
+    cols = {c: np.asarray(state[c], dtype=float) for c in state.columns}
     rest = phase == 0
     first = scene.phases[0]
     run_phase = np.where(rest, first, phase)
@@ -335,12 +335,12 @@ def _event_variance(t: np.ndarray, event: float | None, sd: float,
         return var
     i_before = int(np.flatnonzero(~after)[-1])
     i_after = int(np.flatnonzero(after)[0])
-    near = np.abs(t - event) < 6.0 * sd
-    p_after = ndtr((t - event) / sd)
-    p_other = np.where(after, 1.0 - p_after, p_after)
-    other = np.where(after[:, None], values[i_before][None, :], values[i_after][None, :])
-    diff = np.nan_to_num(other - values)
-    var[near] = p_other[near, None] * diff[near] ** 2
+    near = np.flatnonzero(np.abs(t - event) < 6.0 * sd)  # only these rows: no (n, m) temporaries
+    p_after = ndtr((t[near] - event) / sd)
+    p_other = np.where(after[near], 1.0 - p_after, p_after)
+    other = np.where(after[near, None], values[i_before][None, :], values[i_after][None, :])
+    diff = np.nan_to_num(other - values[near])
+    var[near] = p_other[:, None] * diff ** 2
     return var
 
 
@@ -452,10 +452,10 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         sources["lift_off"] = f"no trough (projectile {scene.projectile!r})"
     phase = shot_phases(t, scene, trigger, lift, release)
 
-    prop = propagate(lambda s: _evaluate(s, phase[s.index.to_numpy()], scene, options.form,
+    prop = propagate(lambda s: _evaluate(s, phase[np.asarray(s.index)], scene, options.form,
                                          options.trough),
                      state, cov, order=propagation_order(options), chunk=CHUNK_ROWS,
-                     carry=_flight_carry(phase), order_names=list(ADVISED))
+                     carry=_flight_carry(phase), order_names=list(ADVISED), columns=True)
     ev_var = (_event_variance(t, trigger, event_sd["trigger"], prop.value)
               + _event_variance(t, release, event_sd["release"], prop.value))
     sd = np.sqrt(prop.sd ** 2 + ev_var)

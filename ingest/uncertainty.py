@@ -29,7 +29,7 @@ import pandas as pd
 from trebuchet.ingest.kalman import reference
 from trebuchet.ingest.kalman.kernel import compiled
 
-__all__ = ["Propagation", "propagate", "STATE_SUFFIXES", "BAND_SD", "CHUNK_ROWS"]
+__all__ = ["Propagation", "Columns", "propagate", "STATE_SUFFIXES", "BAND_SD", "CHUNK_ROWS"]
 
 STATE_SUFFIXES = ("", "_d", "_dd")
 
@@ -37,8 +37,26 @@ STATE_SUFFIXES = ("", "_d", "_dd")
 BAND_SD = 2.0
 
 #: Rows a long table's propagation evaluates at a time (``propagate(chunk=…)``): its 19
-#: evaluations of some 40 loads then hold about 30 MB, whatever the log's length.
-CHUNK_ROWS = 4096
+#: evaluations of some 40 loads then hold about 2 MB, whatever the log's length.
+CHUNK_ROWS = 256
+
+
+class Columns(dict):
+    """A table as numpy columns (a dict) with its rows' positions as ``index`` and its
+    column names as ``columns``: what :func:`propagate` hands ``evaluate`` with
+    ``columns=True``, read as a DataFrame is (``t["theta"]``, ``t.columns``, ``t.index``)
+    without building one per evaluation."""
+
+    def __init__(self, data: Mapping[str, np.ndarray], index: np.ndarray) -> None:
+        super().__init__(data)
+        self.index = index
+
+    @property
+    def columns(self) -> list[str]:
+        return list(self)
+
+    def __len__(self) -> int:
+        return len(self.index)
 
 
 @dataclass(frozen=True)
@@ -78,7 +96,7 @@ def _shifts(state: pd.DataFrame, h: dict[str, np.ndarray], order: int
         for i, suffix in enumerate(STATE_SUFFIXES):
             if not np.any(hh[:, i] > 0):
                 continue
-            x = state[angle + suffix].to_numpy(dtype=float)
+            x = np.asarray(state[angle + suffix], dtype=float)
             out.append((angle, i, x + hh[:, i]))
             if order == 2:
                 out.append((angle, i, x - hh[:, i]))
@@ -89,7 +107,7 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
               cov: dict[str, np.ndarray], names: list[str] | None = None,
               order: int = 2, stacked: bool = False, *, chunk: int | None = None,
               carry: Callable[[int, int], np.ndarray] | None = None,
-              order_names: list[str] | None = None) -> Propagation:
+              order_names: list[str] | None = None, columns: bool = False) -> Propagation:
     """Propagate the per-angle covariance ``cov`` ({angle: (n, 3, 3)}, SI; NaN = unknown)
     through ``evaluate`` (a vectorised function of a frame with ``<angle><suffix>``
     columns, returning loads) at ``state``. ``names``: output columns to propagate
@@ -109,11 +127,15 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
     their positions in ``state``; ``carry(lo, hi)``: the positions (before ``lo``) of rows
     the rows ``lo … hi−1`` depend on (the projectile in flight on the last row in the
     sling), evaluated with them and dropped. ``order_names``: the columns whose
-    ``by_order`` is kept (None: all)."""
+    ``by_order`` is kept (None: all). ``columns``: ``evaluate`` gets a :class:`Columns`
+    (numpy columns and the rows' positions) instead of a DataFrame and may return one, or
+    any mapping of columns (no DataFrame per evaluation)."""
     if order not in (1, 2):
         raise ValueError(f"propagate: order must be 1 or 2, not {order!r}")
     covs = {a: np.asarray(C, dtype=float) for a, C in cov.items()}
     n = len(state)
+    if columns:
+        state = Columns({c: np.asarray(state[c]) for c in state.columns}, np.arange(n))
     if chunk is None or n <= chunk:
         return _kept(_propagated(evaluate, state, covs, names, order, stacked), order_names)
     value = sd = lin = None
@@ -121,9 +143,10 @@ def propagate(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.DataFr
         hi = min(lo + chunk, n)
         extra = np.asarray(carry(lo, hi) if carry is not None else [], dtype=np.int64)
         rows = np.r_[extra, np.arange(lo, hi)]
-        part = _kept(_propagated(evaluate, state.iloc[rows],
-                                 {a: C[rows] for a, C in covs.items()}, names, order, stacked),
-                     order_names)
+        rows_of = (Columns({c: v[rows] for c, v in state.items()}, rows) if columns
+                   else state.iloc[rows])
+        part = _kept(_propagated(evaluate, rows_of, {a: C[rows] for a, C in covs.items()},
+                                 names, order, stacked), order_names)
         if value is None:
             names = part.names
             value, sd = np.empty((n, len(names))), np.empty((n, len(names)))
@@ -150,13 +173,15 @@ def _propagated(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.Data
     h = {a: np.sqrt(np.clip(np.nan_to_num(np.diagonal(C, axis1=1, axis2=2)), 0.0, None))
          for a, C in covs.items()}
     shifts = _shifts(state, h, order)
-    columns = {c: state[c].to_numpy() for c in state.columns}
+    columns = {c: np.asarray(state[c]) for c in state.columns}
     n = len(state)
+    table = Columns if isinstance(state, Columns) else pd.DataFrame
     if stacked:
         big = {c: np.concatenate([v] + [x if c == a + STATE_SUFFIXES[i] else v
                                         for a, i, x in shifts])
                for c, v in columns.items()}
-        result = evaluate(pd.DataFrame(big))
+        result = evaluate(Columns(big, np.arange(n * (len(shifts) + 1))) if table is Columns
+                          else pd.DataFrame(big))
         if names is None:
             names = _load_names(result, state)
         values = _numeric(result, names)
@@ -169,8 +194,9 @@ def _propagated(evaluate: Callable[[pd.DataFrame], pd.DataFrame], state: pd.Data
         outputs[0] = _numeric(base, names)
         del base
         for s, (a, i, x) in enumerate(shifts):
-            frame = pd.DataFrame(columns | {a + STATE_SUFFIXES[i]: x}, index=state.index,
-                                 copy=False)
+            shifted = columns | {a + STATE_SUFFIXES[i]: x}
+            frame = (Columns(shifted, state.index) if table is Columns
+                     else pd.DataFrame(shifted, index=state.index, copy=False))
             outputs[s + 1] = _numeric(evaluate(frame), names)
     step = 2 if order == 2 else 1
     at = {(a, i): 1 + step * j for j, (a, i) in enumerate(dict.fromkeys(

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from trebuchet.ingest.events.driven_pendulum import driven_pendulum
-from trebuchet.model.dynamics import sling_pendulum_phi_dd
 from trebuchet.model.scene import Scene
 
 __all__ = ["SlingContinuation", "continued_sling", "release_horizon", "HORIZON_FRAMES"]
@@ -81,13 +80,11 @@ def continued_sling(est: dict[str, np.ndarray], scene: Scene, last: int,
     (:func:`.driven_pendulum.driven_pendulum`: not across a gap of the beam's rows, ``gap``
     then the time it stopped at); ``cov_phi`` (3, 3): the smoother's covariance of (φ, φ̇,
     φ̈) at that row (SI)."""
-    e, g = scene.engine, scene.g
     t, theta, theta_d, theta_dd = (np.asarray(est[c], dtype=float)
                                    for c in ("t", "theta", "theta_d", "theta_dd"))
     run = driven_pendulum(
         t, theta, theta_d, theta_dd, last,
         np.array([float(est["phi"][last]), float(est["phi_d"][last])]), cov_phi,
-        lambda th, th_d, th_dd, phi: sling_pendulum_phi_dd(th, th_d, th_dd, phi, e, g, np),
-        seed=seed, until=until)
+        "sling", scene.engine, scene.g, seed=seed, until=until)
     return SlingContinuation(run.rows, run.angle, run.rate, run.acc, run.cov, run.start,
                              run.gap)

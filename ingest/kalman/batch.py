@@ -297,10 +297,10 @@ def resmoothed(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.nd
         return reference.smoothed_states(steps, reference.refiltered(steps, one, z, ok, x0),
                                          ok)[:, :, :kx]
     nu, xp = _refilter_of(steps, filt, z, valid, x0, src, kx)
-    xs = np.empty((steps.n, B, kx))
+    # xs = xp + Pp r written over xp (each element read once, before it is written)
     states_pass(_f(steps.F), _f(filt.gain), _f(filt.S), _f(filt.Pp), nu, xp,
-                np.ascontiguousarray(valid, np.bool_), src, xs)
-    return xs
+                np.ascontiguousarray(valid, np.bool_), src, xp)
+    return xp
 
 
 def residual_quadratics(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.ndarray,
@@ -327,7 +327,8 @@ def residual_quadratics(steps: StepModel, filt: FilterResult, z: np.ndarray, val
 
 def simulated_model_runs(steps: StepModel, noise: np.ndarray, kick: np.ndarray,
                          r2: np.ndarray, prior: np.ndarray, rng: np.random.Generator,
-                         src: np.ndarray | None = None) -> np.ndarray:
+                         src: np.ndarray | None = None, out: np.ndarray | None = None
+                         ) -> np.ndarray:
     """Measurements (B, n) drawn from the state-space model itself: the first state of
     ``x_i = F_i x_{i-1} + w_i``, ``w_i ~ N(0, noise[b] Q0_i + kick[b] G_i)`` (``noise``
     (B, n), or (S, n) with series ``b`` on row ``src[b]``; ``kick`` (B,)), ``x_0 ~ N(0,
@@ -336,11 +337,16 @@ def simulated_model_runs(steps: StepModel, noise: np.ndarray, kick: np.ndarray,
     The draws are those of one ``rng.standard_normal`` call each for the start (B, k), the
     steps (n, B, k), the kicks (events, B, k) and the measurements (B, n), in that order;
     the steps' are made :data:`DRAW_CHUNK` rows at a time, twice (to reach the kicks' draws
-    first), so no (n, B, k) array is held."""
+    first), so no (n, B, k) array is held. ``out``: a C-ordered (B, n) array to write the
+    draws into (returned)."""
     noise = np.asarray(noise, float)
     if reference.active():
-        return reference.simulated_model_runs(steps, noise if src is None else noise[src],
-                                              kick, r2, prior, rng)
+        z = reference.simulated_model_runs(steps, noise if src is None else noise[src], kick,
+                                           r2, prior, rng)
+        if out is None:
+            return z
+        out[...] = z
+        return out
     n, k = steps.n, steps.k
     B = np.asarray(kick).size
     src = _series(src, B)
@@ -355,12 +361,17 @@ def simulated_model_runs(steps: StepModel, noise: np.ndarray, kick: np.ndarray,
     kicks = rng.standard_normal((events.size, B, k))
     sd = _f(np.sqrt(noise))
     kick_sd = _f(np.sqrt(np.asarray(kick, float)))
-    z = np.empty((B, n))
+    z = np.empty((B, n)) if out is None else out
     F = _f(steps.F)
     for lo in range(0, n, DRAW_CHUNK):
         normals = replay.standard_normal((min(DRAW_CHUNK, n - lo), B, k))
         simulate_chunk(lo, F, q_root, g_root, events, sd, src, kick_sd, normals, kicks, x, z)
-    return z + np.sqrt(np.asarray(r2, float))[:, None] * rng.standard_normal((B, n))
+    r_sd = np.sqrt(np.asarray(r2, float))
+    rows = max(1, DRAW_CHUNK // max(n, 1))  # the (B, n) draws a few series at a time
+    for lo in range(0, B, rows):
+        hi = min(lo + rows, B)
+        z[lo:hi] += r_sd[lo:hi, None] * rng.standard_normal((hi - lo, n))
+    return z
 
 
 def error_covariance(steps: StepModel, filt: FilterResult, sm: SmootherResult,

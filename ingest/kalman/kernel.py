@@ -23,13 +23,15 @@ import numpy as np
 __all__ = ["filter_steps", "noisy_steps", "compiled"]
 
 
-def compiled(function):  # noqa: ANN001, ANN201 - numba
+def compiled(function, inline: bool = False):  # noqa: ANN001, ANN201 - numba
     """``function`` compiled with an on-disk cache, or without one where numba finds no
-    writable cache folder."""
+    writable cache folder; ``inline``: compiled into each compiled caller (a small helper
+    of an inner loop: a call costs more than its few products)."""
+    options = {"error_model": "numpy", **({"inline": "always"} if inline else {})}
     try:
-        return numba.njit(cache=True, error_model="numpy")(function)
+        return numba.njit(cache=True, **options)(function)
     except RuntimeError:  # "cannot cache function ...: no locator available"
-        return numba.njit(error_model="numpy")(function)
+        return numba.njit(**options)(function)
 
 
 def _rest_steps(first, src, valid, z, r2, x, P, S_hist, nu_hist, hist, weight, has_sums,
@@ -201,7 +203,7 @@ def _noisy_steps(Q0, G, lam, shape, shape_src, kick):  # noqa: ANN001, ANN201 - 
     return out
 
 
-_add_loglik = compiled(_add_loglik)
+_add_loglik = compiled(_add_loglik, inline=True)
 _rest_steps = compiled(_rest_steps)
 filter_steps = compiled(_filter_steps)
 noisy_steps = compiled(_noisy_steps)

@@ -22,45 +22,53 @@ __all__ = ["smoother_pass", "sums_pass", "refilter_pass", "states_pass", "quad_p
            "error_cov_pass", "simulate_chunk"]
 
 
-def _transfer(F, i, gain, L):  # noqa: ANN001, ANN201 - numba
-    """``L = F[i+1] − (F[i+1] K_i) e1ᵀ`` (k, k) into ``L``; ``gain`` the (k,) gain of step i."""
+def _transfer(F, i, gain, s, L):  # noqa: ANN001, ANN201 - numba
+    """``L = F[i+1] − (F[i+1] K) e1ᵀ`` (k, k) into ``L``, ``K = gain[i, s]``."""
     k = L.shape[0]
     for p in range(k):
         acc = 0.0
         for j in range(k):
-            acc += F[i + 1, p, j] * gain[j]
+            acc += F[i + 1, p, j] * gain[i, s, j]
         for q in range(k):
             L[p, q] = F[i + 1, p, q]
         L[p, 0] -= acc
 
 
-def _back_r(r, L, tmp):  # noqa: ANN001, ANN201 - numba
-    """``r ← r L`` (row vector) in place."""
-    k = r.shape[0]
+def _back_r(F, gain, i, s, r, b, tmp):  # noqa: ANN001, ANN201 - numba
+    """``r[b] ← r[b] L`` (a row vector) with ``L = F[i+1] − (F[i+1] K) e1ᵀ``,
+    ``K = gain[i, s]``: ``r F[i+1]``, less ``r·(F[i+1] K)`` in its first element."""
+    k = tmp.shape[0]
     for q in range(k):
         acc = 0.0
         for p in range(k):
-            acc += r[p] * L[p, q]
+            acc += r[b, p] * F[i + 1, p, q]
         tmp[q] = acc
+    corr = 0.0
+    for p in range(k):
+        fk = 0.0
+        for j in range(k):
+            fk += F[i + 1, p, j] * gain[i, s, j]
+        corr += r[b, p] * fk
+    tmp[0] -= corr
     for q in range(k):
-        r[q] = tmp[q]
+        r[b, q] = tmp[q]
 
 
-def _sandwich(L, N, T, out):  # noqa: ANN001, ANN201 - numba
-    """``out = Lᵀ N L`` (k, k); ``T`` scratch."""
+def _sandwich(L, N, b, T):  # noqa: ANN001, ANN201 - numba
+    """``N[b] ← Lᵀ N[b] L`` (k, k); ``T`` scratch."""
     k = L.shape[0]
     for p in range(k):
         for q in range(k):
             acc = 0.0
             for u in range(k):
-                acc += N[p, u] * L[u, q]
+                acc += N[b, p, u] * L[u, q]
             T[p, q] = acc
     for p in range(k):
         for q in range(k):
             acc = 0.0
             for u in range(k):
                 acc += L[u, p] * T[u, q]
-            out[p, q] = acc
+            N[b, p, q] = acc
 
 
 def _smoother_pass(F, gain, S, nu, xp, Pp, valid, src, xs, Ps, rs, Ns
@@ -78,9 +86,9 @@ def _smoother_pass(F, gain, S, nu, xp, Pp, valid, src, xs, Ps, rs, Ns
         for b in range(B):
             s = src[b]
             if i < n - 1:
-                _transfer(F, i, gain[i, s], L)
-                _back_r(r[b], L, tmp)
-                _sandwich(L, N[b], T, N[b])
+                _transfer(F, i, gain, s, L)
+                _back_r(F, gain, i, s, r, b, tmp)
+                _sandwich(L, N, b, T)
             inv = 1.0 / S[i, s] if valid[s, i] else 0.0
             r[b, 0] += nu[i, b] * inv
             N[b, 0, 0] += inv
@@ -109,14 +117,12 @@ def _sums_pass(F, gain, S, nu, valid, src, rs):  # noqa: ANN001, ANN201 - numba
     """The backward sums ``r`` only (n, B, k) into ``rs``."""
     n, B, k = rs.shape
     r = np.zeros((B, k))
-    L = np.empty((k, k))
     tmp = np.empty(k)
     for i in range(n - 1, -1, -1):
         for b in range(B):
             s = src[b]
             if i < n - 1:
-                _transfer(F, i, gain[i, s], L)
-                _back_r(r[b], L, tmp)
+                _back_r(F, gain, i, s, r, b, tmp)
             inv = 1.0 / S[i, s] if valid[s, i] else 0.0
             r[b, 0] += nu[i, b] * inv
             for a in range(k):
@@ -155,14 +161,12 @@ def _states_pass(F, gain, S, Pp, nu, xp, valid, src, xs):  # noqa: ANN001, ANN20
     n, B, kx = xs.shape
     k = F.shape[1]
     r = np.zeros((B, k))
-    L = np.empty((k, k))
     tmp = np.empty(k)
     for i in range(n - 1, -1, -1):
         for b in range(B):
             s = src[b]
             if i < n - 1:
-                _transfer(F, i, gain[i, s], L)
-                _back_r(r[b], L, tmp)
+                _back_r(F, gain, i, s, r, b, tmp)
             inv = 1.0 / S[i, s] if valid[s, i] else 0.0
             r[b, 0] += nu[i, b] * inv
             for a in range(kx):
@@ -180,34 +184,30 @@ def _quad_pass(F, gain, S, nu, valid, src, Q0, pairs, quad, pair_quad
     n, B = quad.shape
     k = F.shape[1]
     r = np.zeros((B, k))
-    L = np.empty((k, k))
     tmp = np.empty(k)
-    both = np.empty(k)
     for i in range(n - 1, -1, -1):
         for b in range(B):
             s = src[b]
             if i < n - 1:
-                _transfer(F, i, gain[i, s], L)
-                _back_r(r[b], L, tmp)
+                _back_r(F, gain, i, s, r, b, tmp)
             inv = 1.0 / S[i, s] if valid[s, i] else 0.0
             r[b, 0] += nu[i, b] * inv
-            quad[i, b] = _form(Q0, i, r[b])
-        for j in range(pairs.shape[0]):
+            out = 0.0
             for a in range(k):
-                both[a] = r[pairs[j, 0], a] + r[pairs[j, 1], a]
-            pair_quad[i, j] = _form(Q0, i, both)
-
-
-def _form(Q0, i, v):  # noqa: ANN001, ANN201 - numba
-    """``vᵀ Q0[i] v``."""
-    k = v.shape[0]
-    out = 0.0
-    for a in range(k):
-        acc = 0.0
-        for c in range(k):
-            acc += Q0[i, a, c] * v[c]
-        out += v[a] * acc
-    return out
+                acc = 0.0
+                for c in range(k):
+                    acc += Q0[i, a, c] * r[b, c]
+                out += r[b, a] * acc
+            quad[i, b] = out
+        for j in range(pairs.shape[0]):
+            b1, b2 = pairs[j, 0], pairs[j, 1]
+            out = 0.0
+            for a in range(k):
+                acc = 0.0
+                for c in range(k):
+                    acc += Q0[i, a, c] * (r[b1, c] + r[b2, c])
+                out += (r[b1, a] + r[b2, a]) * acc
+            pair_quad[i, j] = out
 
 
 def _error_cov_pass(F, Q0, G, gain, S, Pp, N, valid, src, r2, lam, kick, prior, err, covr
@@ -224,7 +224,7 @@ def _error_cov_pass(F, Q0, G, gain, S, Pp, N, valid, src, r2, lam, kick, prior, 
     L = np.empty((k, k))
     T = np.empty((k, k))
     T2 = np.empty((k, k))
-    W = np.empty((k, k))
+    W = np.empty((1, k, k))
     U = np.zeros((B, k, k))
     fk = np.empty(k)
     c = np.empty(k)
@@ -236,8 +236,8 @@ def _error_cov_pass(F, Q0, G, gain, S, Pp, N, valid, src, r2, lam, kick, prior, 
     for i in range(n - 1):
         for b in range(B):
             s = src[b]
-            _transfer(F, i, gain[i, s], L)
-            _gain_forward(F, i, gain[i, s], fk)
+            _transfer(F, i, gain, s, L)
+            _gain_forward(F, i, gain, s, fk)
             for a in range(k):  # T = L Π
                 for q in range(k):
                     acc = 0.0
@@ -258,8 +258,8 @@ def _error_cov_pass(F, Q0, G, gain, S, Pp, N, valid, src, r2, lam, kick, prior, 
             for a in range(k):
                 c[a] = 0.0
             if i < n - 1:
-                _transfer(F, i, gain[i, s], L)
-                _gain_forward(F, i, gain[i, s], fk)
+                _transfer(F, i, gain, s, L)
+                _gain_forward(F, i, gain, s, fk)
                 for a in range(k):  # N_{i+1} F K
                     acc = 0.0
                     for u in range(k):
@@ -278,34 +278,34 @@ def _error_cov_pass(F, Q0, G, gain, S, Pp, N, valid, src, r2, lam, kick, prior, 
                         T[a, q] = acc
                 for a in range(k):
                     for q in range(k):
-                        W[a, q] = lam[b] * Q0[i + 1, a, q] + kick[b] * G[i + 1, a, q]
-                _sandwich(L, U[b], T2, U[b])  # U ← Lᵀ U L
-                _sandwich(T, W, T2, W)  # W ← (N L)ᵀ W (N L)
+                        W[0, a, q] = lam[b] * Q0[i + 1, a, q] + kick[b] * G[i + 1, a, q]
+                _sandwich(L, U, b, T2)  # U ← Lᵀ U L
+                _sandwich(T, W, 0, T2)  # W ← (N L)ᵀ W (N L)
             if valid[s, i]:
                 c[0] += 1.0 / S[i, s]
             for a in range(k):
                 for q in range(k):
                     drive = r2[b] * c[a] * c[q]
                     if i < n - 1:
-                        drive += W[a, q]
+                        drive += W[0, a, q]
                     U[b, a, q] += drive
-            _error_at(i, b, s, Pp, N, Pi, U[b], err, covr, parts, T, T2)
+            _error_at(i, b, s, Pp, N, Pi, U, err, covr, parts, T, T2)
 
 
-def _gain_forward(F, i, gain, fk):  # noqa: ANN001, ANN201 - numba
-    """``F[i+1] K_i`` (k,) into ``fk``."""
+def _gain_forward(F, i, gain, s, fk):  # noqa: ANN001, ANN201 - numba
+    """``F[i+1] K`` (k,) into ``fk``, ``K = gain[i, s]``."""
     k = fk.shape[0]
     for p in range(k):
         acc = 0.0
         for j in range(k):
-            acc += F[i + 1, p, j] * gain[j]
+            acc += F[i + 1, p, j] * gain[i, s, j]
         fk[p] = acc
 
 
 def _error_at(i, b, s, Pp, N, Pi, U, err, covr, parts, T, T2):  # noqa: ANN001, ANN201
-    """``err[i, b] = M Π Mᵀ + Pp U Pp`` with ``M = I − Pp N``, and ``covr[i, b] = N Π N +
-    U``."""
-    k = U.shape[0]
+    """``err[i, b] = M Π Mᵀ + Pp U[b] Pp`` with ``M = I − Pp N``, and ``covr[i, b] = N Π N +
+    U[b]``."""
+    k = T.shape[0]
     for a in range(k):  # T = M
         for q in range(k):
             acc = 0.0
@@ -328,7 +328,7 @@ def _error_at(i, b, s, Pp, N, Pi, U, err, covr, parts, T, T2):  # noqa: ANN001, 
         for q in range(k):
             acc = 0.0
             for u in range(k):
-                acc += Pp[i, s, a, u] * U[u, q]
+                acc += Pp[i, s, a, u] * U[b, u, q]
             T[a, q] = acc
     for a in range(k):
         for q in range(k):
@@ -349,7 +349,7 @@ def _error_at(i, b, s, Pp, N, Pi, U, err, covr, parts, T, T2):  # noqa: ANN001, 
             acc = 0.0
             for u in range(k):
                 acc += T[a, u] * N[i, b, u, q]
-            covr[i, b, a, q] = acc + U[a, q]
+            covr[i, b, a, q] = acc + U[b, a, q]
 
 
 def _simulate_chunk(lo, F, q_root, g_root, events, noise_sd, src, kick_sd, normals,
@@ -386,12 +386,11 @@ def _simulate_chunk(lo, F, q_root, g_root, events, noise_sd, src, kick_sd, norma
             z[b, i] = xn[0]
 
 
-_transfer = compiled(_transfer)
-_back_r = compiled(_back_r)
-_sandwich = compiled(_sandwich)
-_form = compiled(_form)
-_gain_forward = compiled(_gain_forward)
-_error_at = compiled(_error_at)
+_transfer = compiled(_transfer, inline=True)
+_back_r = compiled(_back_r, inline=True)
+_sandwich = compiled(_sandwich, inline=True)
+_gain_forward = compiled(_gain_forward, inline=True)
+_error_at = compiled(_error_at, inline=True)
 smoother_pass = compiled(_smoother_pass)
 sums_pass = compiled(_sums_pass)
 refilter_pass = compiled(_refilter_pass)

@@ -44,22 +44,25 @@ def residual_moments(steps: StepModel, filt: FilterResult, Z: np.ndarray, valid:
     noise = np.vstack([np.zeros((1, n)), lam * r2[:, None]])
     kicks = np.where(drawn < half, kick[many], 0.0)
     meas = np.where(drawn < half, r2[many], 0.0)
+    # the data's residual (rows 0 … A−1) and the draws' (below) in one batch
+    res = np.empty((A + 2 * half, n))
+    res[:A] = np.where(valid, Z - fitted, 0.0)
     z = simulated_model_runs(steps, noise, kicks, meas, prior[many] * (meas > 0)[:, None, None],
-                             rng, src=np.where(drawn < half, 0, 1 + many))
-    z = np.where(valid[many], z, 0.0)
+                             rng, src=np.where(drawn < half, 0, 1 + many), out=res[A:])
+    z[~valid[many]] = 0.0
     zero = np.zeros((2 * half, steps.k))
     z -= resmoothed(steps, filt, z, valid, zero, src=many, states=1)[:, :, 0].T
-    # the data's residual and the draws' in one batch: ρ's quadratic forms, and those of
-    # the sum of each noise draw and its process-noise draw (ρ is linear in the data)
+    # ρ's quadratic forms, and those of the sum of each noise draw and its process-noise
+    # draw (ρ is linear in the data)
     everyone = np.concatenate([np.arange(A), many])
-    res = np.concatenate([np.where(valid, Z - fitted, 0.0), z])
     pairs = np.stack([A + np.arange(half), A + half + np.arange(half)], axis=1)
     quad, pair_quad = residual_quadratics(steps, filt, res, valid, everyone, pairs)
-    stat = quad * lam[everyone].T
-    null = stat[:, A:A + half].reshape(n, draws, A).mean(axis=1)
-    slope = stat[:, A + half:].reshape(n, draws, A).mean(axis=1)
-    alt = pair_quad * lam[many[:half]].T
-    return stat[:, :A], null, slope, alt.reshape(n, draws, A)
+    del res, z
+    lam_t = lam.T[:, None, :]  # (n, 1, A): the draws' series are (draw, angle)
+    null = (quad[:, A:A + half].reshape(n, draws, A) * lam_t).mean(axis=1)
+    slope = (quad[:, A + half:].reshape(n, draws, A) * lam_t).mean(axis=1)
+    alt = pair_quad.reshape(n, draws, A) * lam_t
+    return quad[:, :A] * lam.T, null, slope, alt
 
 
 def shrunk_alpha(prior: np.ndarray, estimate: np.ndarray, variance: np.ndarray,
@@ -89,7 +92,7 @@ def calibrated_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: n
     settings, steps, k, A, n, valid = p.settings, fit.steps, p.k, p.A, p.n, p.valid
     est, lam_use, sm, kick = fit.est, fit.lam_use, fit.sm, p.kick
     band_scale = np.ones((A, n))
-    used = fit.filt.series(np.arange(A))
+    used = fit.filt if fit.filt.S.shape[1] == A else fit.filt.series(np.arange(A))
     own = SmootherResult(sm.x[:, :A], sm.P[:, :A], sm.r[:, :A], sm.N[:, :A])
     E0, R0 = error_covariance(steps, used, own, valid, np.array([e.r2 for e in est]),
                               np.zeros(A), kick, p.P0, parts=True)
@@ -104,6 +107,7 @@ def calibrated_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: n
     seen = np.einsum("nai,naij,naj->na", rr, lam_q, rr)
     base = np.einsum("naij,naji->na", lam_q, R0)
     slope = np.einsum("naij,naji->na", lam_q, sm.N[:, :A] - R0)
+    del lam_q, R0
     shrink = settings.band_alpha_from == "shrunk"
     if shrink:
         seen_r, base_r, slope_r, alt = residual_moments(
@@ -137,14 +141,17 @@ def calibrated_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: n
     alpha = np.clip(alpha, 0.0, 1.0)
     if shrink:
         alpha = np.clip(shrunk_alpha(alpha, a_res, v_res, frames), 0.0, 1.0)
-    return E0 + alpha.T[:, :, None, None] * (Ps - E0), alpha
+    band = Ps - E0  # E0 + α (P − E0), in one array
+    band *= alpha.T[:, :, None, None]
+    band += E0
+    return band, alpha
 
 
 def bias_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: np.ndarray) -> np.ndarray:
     """``Ps`` plus ``b bᵀ``, the smoothing's bias ``b`` from the same smoother run again on
     its own output, ``bias_iterations`` terms of its series."""
     steps, valid = fit.steps, p.valid
-    used = fit.filt.series(np.arange(p.A))
+    used = fit.filt if fit.filt.S.shape[1] == p.A else fit.filt.series(np.arange(p.A))
 
     def again(series: np.ndarray, prior: np.ndarray) -> np.ndarray:
         return resmoothed(steps, used, series, valid, prior)
