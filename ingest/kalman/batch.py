@@ -38,14 +38,13 @@ References
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from trebuchet.ingest.kalman import reference
 from trebuchet.ingest.kalman.kernel import filter_steps, noisy_steps
 from trebuchet.ingest.kalman.passes import (
     error_cov_pass,
+    kick_responses,
     quad_pass,
     refilter_pass,
     simulate_chunk,
@@ -66,10 +65,11 @@ from trebuchet.ingest.kalman.steps import (
 __all__ = ["polynomial_transition", "white_noise_covariance", "StepModel", "FilterResult",
            "SmootherResult", "LoglikSums", "batch_kalman_filter", "filter_loglik",
            "backward_smoother", "smoothed_states", "backward_sums", "refiltered",
-           "resmoothed", "residual_quadratics", "simulated_model_runs", "error_covariance"]
+           "resmoothed", "residual_innovations", "residual_quadratics", "simulated_model_runs",
+           "error_covariance"]
 
 #: Rows of the model's draws made at once (:func:`simulated_model_runs`).
-DRAW_CHUNK = 4096
+DRAW_CHUNK = 512
 
 
 def _f(a: np.ndarray) -> np.ndarray:
@@ -303,22 +303,37 @@ def resmoothed(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.nd
     return xp
 
 
-def residual_quadratics(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.ndarray,
-                        src: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``ρᵀ Q0 ρ`` (n, B) of the backward sums ``ρ`` of the smoother of ``filt``'s series
-    ``src[b]`` run on ``z`` (B, n) from a zero prior mean (``valid`` (A, n) by ``src``), and
-    ``(ρ_a + ρ_b)ᵀ Q0 (ρ_a + ρ_b)`` (n, P) for each row ``(a, b)`` of ``pairs`` (P, 2)."""
-    n, k = steps.n, steps.k
+def residual_innovations(steps: StepModel, filt: FilterResult, z: np.ndarray,
+                         valid: np.ndarray, src: np.ndarray) -> FilterResult:
+    """The innovations of the filter of ``filt``'s series ``src[b]`` (its gains) run on
+    ``z`` (B, n) from a zero prior mean (``valid`` (A, n) by ``src``), for
+    :func:`residual_quadratics` (``z`` is not needed after it)."""
+    k = steps.k
     src = _series(src, np.asarray(z).shape[0])
+    if reference.active():
+        one = reference.refiltered(steps, filt.series(src), z, np.asarray(valid)[src],
+                                   np.zeros((src.size, k)))
+        return FilterResult(one.S, one.nu, xp=one.xp, Pp=one.Pp, gain=one.gain)
+    nu, _ = _refilter_of(steps, filt, z, valid, np.zeros((src.size, k)), src, 0)
+    return FilterResult(filt.S, nu)
+
+
+def residual_quadratics(steps: StepModel, filt: FilterResult, innovations: FilterResult,
+                        valid: np.ndarray, src: np.ndarray, pairs: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """``ρᵀ Q0 ρ`` (n, B) of the backward sums ``ρ`` of the smoother of ``filt``'s series
+    ``src[b]`` of the ``innovations`` :func:`residual_innovations` gave (``valid`` (A, n) by
+    ``src``), and ``(ρ_a + ρ_b)ᵀ Q0 (ρ_a + ρ_b)`` (n, P) for each row ``(a, b)`` of
+    ``pairs`` (P, 2)."""
+    n = steps.n
+    src = _series(src, innovations.nu.shape[1])
     pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
     if reference.active():
-        ok = np.asarray(valid)[src]
-        rho = reference.backward_sums(steps, reference.refiltered(
-            steps, filt.series(src), z, ok, np.zeros((src.size, k))), ok)
+        rho = reference.backward_sums(steps, innovations, np.asarray(valid)[src])
         both = rho[:, pairs[:, 0]] + rho[:, pairs[:, 1]]
         return (np.einsum("nai,nij,naj->na", rho, steps.Q0, rho, optimize=True),
                 np.einsum("nai,nij,naj->na", both, steps.Q0, both, optimize=True))
-    nu, _ = _refilter_of(steps, filt, z, valid, np.zeros((src.size, k)), src, 0)
+    nu = innovations.nu
     quad, pair_quad = np.empty((n, src.size)), np.empty((n, pairs.shape[0]))
     quad_pass(_f(steps.F), _f(filt.gain), _f(filt.S), nu, np.ascontiguousarray(valid, np.bool_),
               src, _f(steps.Q0), pairs, quad, pair_quad)
@@ -336,9 +351,10 @@ def simulated_model_runs(steps: StepModel, noise: np.ndarray, kick: np.ndarray,
 
     The draws are those of one ``rng.standard_normal`` call each for the start (B, k), the
     steps (n, B, k), the kicks (events, B, k) and the measurements (B, n), in that order;
-    the steps' are made :data:`DRAW_CHUNK` rows at a time, twice (to reach the kicks' draws
-    first), so no (n, B, k) array is held. ``out``: a C-ordered (B, n) array to write the
-    draws into (returned)."""
+    the steps' are made :data:`DRAW_CHUNK` rows at a time, so no (n, B, k) array is held,
+    and the runs made without the kicks, whose responses (the model is linear) are added
+    once their draws come. ``out``: a C-ordered (B, n) array to write the draws into
+    (returned)."""
     noise = np.asarray(noise, float)
     if reference.active():
         z = reference.simulated_model_runs(steps, noise if src is None else noise[src], kick,
@@ -355,17 +371,16 @@ def simulated_model_runs(steps: StepModel, noise: np.ndarray, kick: np.ndarray,
     g_root = _f(matrix_root(steps.G[events]))
     x = np.einsum("bij,bj->bi", matrix_root(np.asarray(prior, float)), rng.standard_normal((B, k)))
     x = np.array(x, dtype=np.float64, order="C")
-    replay = copy.deepcopy(rng)
-    for lo in range(0, n, DRAW_CHUNK):
-        rng.standard_normal((min(DRAW_CHUNK, n - lo), B, k))
-    kicks = rng.standard_normal((events.size, B, k))
     sd = _f(np.sqrt(noise))
     kick_sd = _f(np.sqrt(np.asarray(kick, float)))
     z = np.empty((B, n)) if out is None else out
     F = _f(steps.F)
+    none = np.zeros(0, dtype=np.int64)
     for lo in range(0, n, DRAW_CHUNK):
-        normals = replay.standard_normal((min(DRAW_CHUNK, n - lo), B, k))
-        simulate_chunk(lo, F, q_root, g_root, events, sd, src, kick_sd, normals, kicks, x, z)
+        normals = rng.standard_normal((min(DRAW_CHUNK, n - lo), B, k))
+        simulate_chunk(lo, F, q_root, g_root, none, sd, src, kick_sd, normals,
+                       np.zeros((0, B, k)), x, z)
+    kick_responses(F, g_root, events, kick_sd, rng.standard_normal((events.size, B, k)), z)
     r_sd = np.sqrt(np.asarray(r2, float))
     rows = max(1, DRAW_CHUNK // max(n, 1))  # the (B, n) draws a few series at a time
     for lo in range(0, B, rows):

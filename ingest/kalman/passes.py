@@ -19,7 +19,7 @@ import numpy as np
 from trebuchet.ingest.kalman.kernel import compiled
 
 __all__ = ["smoother_pass", "sums_pass", "refilter_pass", "states_pass", "quad_pass",
-           "error_cov_pass", "simulate_chunk"]
+           "error_cov_pass", "simulate_chunk", "kick_responses"]
 
 
 def _transfer(F, i, gain, s, L):  # noqa: ANN001, ANN201 - numba
@@ -386,6 +386,33 @@ def _simulate_chunk(lo, F, q_root, g_root, events, noise_sd, src, kick_sd, norma
             z[b, i] = xn[0]
 
 
+def _kick_responses(F, g_root, events, kick_sd, ev_normals, z):  # noqa: ANN001, ANN201
+    """Add to the draws ``z`` (B, n) the response to each event's kick: ``y_e = kick_sd[b]
+    g_root[e] η_e``, ``y_i = F_i y_{i−1}`` after it, ``z[b, i] += y_i[0]`` (the model is
+    linear: the draws made without the kicks plus these are the draws with them)."""
+    B, n = z.shape
+    k = F.shape[1]
+    y = np.empty(k)
+    yn = np.empty(k)
+    for e in range(events.shape[0]):
+        for b in range(B):
+            for a in range(k):
+                acc = 0.0
+                for m in range(k):
+                    acc += g_root[e, a, m] * ev_normals[e, b, m]
+                y[a] = kick_sd[b] * acc
+            z[b, events[e]] += y[0]
+            for i in range(events[e] + 1, n):
+                for a in range(k):
+                    acc = 0.0
+                    for m in range(k):
+                        acc += y[m] * F[i, a, m]
+                    yn[a] = acc
+                for a in range(k):
+                    y[a] = yn[a]
+                z[b, i] += y[0]
+
+
 _transfer = compiled(_transfer, inline=True)
 _back_r = compiled(_back_r, inline=True)
 _sandwich = compiled(_sandwich, inline=True)
@@ -398,3 +425,4 @@ states_pass = compiled(_states_pass)
 quad_pass = compiled(_quad_pass)
 error_cov_pass = compiled(_error_cov_pass)
 simulate_chunk = compiled(_simulate_chunk)
+kick_responses = compiled(_kick_responses)

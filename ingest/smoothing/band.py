@@ -6,23 +6,61 @@ smoothing residual's, :func:`shrunk_alpha`), and the smoothing's bias.
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
 
 from trebuchet.ingest.kalman.batch import (
     FilterResult,
     SmootherResult,
     StepModel,
     error_covariance,
+    residual_innovations,
     residual_quadratics,
     resmoothed,
     simulated_model_runs,
 )
+from trebuchet.ingest.kalman.kernel import compiled
 from trebuchet.ingest.smoothing.problem import (
     SmoothingProblem,
     TuningState,
 )
 
-__all__ = ["residual_moments", "shrunk_alpha", "calibrated_band", "bias_band"]
+__all__ = ["residual_moments", "shrunk_alpha", "calibrated_band", "bias_band",
+           "gaussian_window"]
+
+
+def gaussian_window(x: np.ndarray, sigma: float) -> np.ndarray:
+    """``scipy.ndimage.gaussian_filter1d(x, sigma, axis=0, mode="constant")`` to the last
+    bit (its kernel: ``exp(−j²/2σ²)`` normalised, to ``int(4σ + 0.5)`` steps; zeros
+    outside ``x``; each output the centre term then the symmetric pairs from the farthest
+    in, as its C loop adds them), compiled with the outputs in the inner loop: about
+    twice as fast on the bands' windows (σ of 30–100 frames at 1000 fps)."""
+    sd = float(sigma)
+    radius = int(4.0 * sd + 0.5)
+    at = np.arange(-radius, radius + 1)
+    w = np.exp(-0.5 / (sd * sd) * at**2)
+    w = w / w.sum()
+    flat = np.ascontiguousarray(np.asarray(x, dtype=float).reshape(len(x), -1))
+    out = np.empty_like(flat)
+    _symmetric_window(flat, np.ascontiguousarray(w[::-1]), out)
+    return out.reshape(np.shape(x))
+
+
+def _symmetric_window(x, w, out):  # noqa: ANN001, ANN201 - numba
+    """``out[i] = x[i] w₀ + Σ_{d=r…1} (x[i−d] + x[i+d]) w_d`` along axis 0, zeros outside."""
+    n, c = x.shape
+    r = w.shape[0] // 2
+    pad = np.zeros((n + 2 * r, c))
+    pad[r:r + n] = x
+    for i in range(n):
+        for q in range(c):
+            out[i, q] = x[i, q] * w[r]
+    for d in range(r, 0, -1):
+        wd = w[r + d]
+        for i in range(n):
+            for q in range(c):
+                out[i, q] += (pad[i + r - d, q] + pad[i + r + d, q]) * wd
+
+
+_symmetric_window = compiled(_symmetric_window)
 
 
 def residual_moments(steps: StepModel, filt: FilterResult, Z: np.ndarray, valid: np.ndarray,
@@ -56,8 +94,10 @@ def residual_moments(steps: StepModel, filt: FilterResult, Z: np.ndarray, valid:
     # draw (ρ is linear in the data)
     everyone = np.concatenate([np.arange(A), many])
     pairs = np.stack([A + np.arange(half), A + half + np.arange(half)], axis=1)
-    quad, pair_quad = residual_quadratics(steps, filt, res, valid, everyone, pairs)
+    innovations = residual_innovations(steps, filt, res, valid, everyone)
     del res, z
+    quad, pair_quad = residual_quadratics(steps, filt, innovations, valid, everyone, pairs)
+    del innovations
     lam_t = lam.T[:, None, :]  # (n, 1, A): the draws' series are (draw, angle)
     null = (quad[:, A:A + half].reshape(n, draws, A) * lam_t).mean(axis=1)
     slope = (quad[:, A + half:].reshape(n, draws, A) * lam_t).mean(axis=1)
@@ -121,17 +161,16 @@ def calibrated_band(p: SmoothingProblem, fit: TuningState, xs: np.ndarray, Ps: n
     for a in range(A):
         tc = np.exp(np.mean(np.log(lam_use[a, noisy]))) ** (-1.0 / (2 * k))
         width = settings.band_window * tc
-        num = gaussian_filter1d(seen[:, a] - base[:, a], width, mode="constant")
-        den = gaussian_filter1d(slope[:, a], width, mode="constant")
+        num = gaussian_window(seen[:, a] - base[:, a], width)
+        den = gaussian_window(slope[:, a], width)
         with np.errstate(invalid="ignore", divide="ignore"):
             alpha[a] = np.where(den > 0, np.maximum(num, 0.0) / den, 1.0)
         if shrink:
             # the residual's α and its sampling variance at α = 1 (the
             # windowed statistic's scatter over the draws of noise plus process)
-            num = gaussian_filter1d(seen_r[:, a] - base_r[:, a], width, mode="constant")
-            den = gaussian_filter1d(slope_r[:, a], width, mode="constant")
-            sd = gaussian_filter1d(alt[:, :, a], width, axis=0,
-                                   mode="constant").std(axis=1, ddof=1)
+            num = gaussian_window(seen_r[:, a] - base_r[:, a], width)
+            den = gaussian_window(slope_r[:, a], width)
+            sd = gaussian_window(alt[:, :, a], width).std(axis=1, ddof=1)
             good = (den > 0) & (sd > 0)
             with np.errstate(invalid="ignore", divide="ignore"):
                 a_res[a] = np.where(good, num / den, 0.0)
