@@ -585,15 +585,17 @@ def _with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
                           until: float | None = None) -> pd.DataFrame:
     """``est`` with φ, φ̇, φ̈ and their sd (and the smoothing's ``cov["phi"]``) filled on the rows
     after the sling track's last row ``last`` (up to the time ``until``, s; if None as far
-    as the release check needs, :func:`.events.sling_continuation.release_horizon`) by the
-    sling's pendulum driven by the smoothed beam (:mod:`.events.sling_continuation`)."""
+    as the release check needs, :func:`.events.sling_continuation.release_horizon`, and
+    φ, φ̇, φ̈ without their sd: the check does not use it) by the sling's pendulum driven
+    by the smoothed beam (:mod:`.events.sling_continuation`)."""
     cols = {c: est[c].to_numpy(dtype=float) for c in
             ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")}
-    if until is None:
+    check = until is None  # for the release check: φ and φ̇ only (its sd NaN)
+    if check:
         until = release_horizon(cols["t"], cols["theta_d"], last,
                                 smoothing_of(est).events.get("trigger"))
     cont = continued_sling(cols, scene, last, smoothing_of(est).cov["phi"][last][:3, :3],
-                           until=until)
+                           until=until, spread=not check)
     return with_angle_rows(est, "phi", cont.rows, (cont.phi, cont.phi_d, cont.phi_dd), cont.cov)
 
 

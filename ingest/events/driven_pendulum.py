@@ -189,7 +189,7 @@ def driven_pendulum(t: np.ndarray, theta: np.ndarray, theta_d: np.ndarray,
                     theta_dd: np.ndarray, last: int, state: np.ndarray, cov: np.ndarray,
                     pendulum: str, engine: Any, g: float, *,
                     theta_dd_sd: np.ndarray | None = None, seed: int = 20261125,
-                    until: float | None = None) -> PendulumRun:
+                    until: float | None = None, spread: bool = True) -> PendulumRun:
     """The angle from row ``last`` on over the later rows where the beam (``t`` s,
     ``theta`` rad, ``theta_d`` rad/s, ``theta_dd`` rad/s², and ``theta_dd_sd`` if given)
     is known, up to the time ``until`` (s; None: the log's end) and not across a gap of the
@@ -198,7 +198,9 @@ def driven_pendulum(t: np.ndarray, theta: np.ndarray, theta_d: np.ndarray,
     ``state`` (angle, rate) at ``last`` with ``cov`` (3, 3) its smoothed covariance of
     (angle, rate, acceleration) there. With ``theta_dd_sd`` each member's θ̈ is shifted by
     a drawn multiple of it. The right-hand side is compiled (its numpy form within
-    :func:`~trebuchet.ingest.kalman.reference.numpy_passes`)."""
+    :func:`~trebuchet.ingest.kalman.reference.numpy_passes`). ``spread=False``: the
+    smoothed start alone, no ensemble, the covariance NaN (where only the angle is used:
+    the ensemble's wider members set the integrator's steps, twice to four times as many)."""
     formula = FORMULAS[pendulum]
     usable = np.isfinite(theta) & np.isfinite(theta_d) & np.isfinite(theta_dd)
     shifted = theta_dd_sd is not None
@@ -213,11 +215,12 @@ def driven_pendulum(t: np.ndarray, theta: np.ndarray, theta_d: np.ndarray,
     x, ys = t[usable], np.stack([v[usable] for v in (theta, theta_d, theta_dd, sd)])
     c2 = np.nan_to_num(np.asarray(cov, dtype=float)[:2, :2])
     rng = np.random.default_rng(seed)
-    draws = rng.multivariate_normal(state, 0.5 * (c2 + c2.T), size=DRAWS, method="eigh")
+    draws = (rng.multivariate_normal(state, 0.5 * (c2 + c2.T), size=DRAWS, method="eigh")
+             if spread else np.zeros((0, 2)))
     y0 = np.vstack([state, draws])  # (1 + DRAWS, 2): the smoothed start first
     m = y0.shape[0]
     # θ̈'s error, in its sd, per member (none for the smoothed start)
-    shift = np.r_[0.0, rng.standard_normal(DRAWS)] if shifted else np.zeros(m)
+    shift = np.r_[0.0, rng.standard_normal(DRAWS)] if shifted and spread else np.zeros(m)
 
     sol = solve_ivp(_right_hand_side(pendulum, x, ys, shift, engine, g),
                     (t[last], t[rows[-1]]), y0.T.ravel(), t_eval=t[rows], method="DOP853",
@@ -229,6 +232,9 @@ def driven_pendulum(t: np.ndarray, theta: np.ndarray, theta_d: np.ndarray,
                   angle, engine, g)
     runs = np.stack([angle, angle_d, acc], axis=1)  # (members, 3, k)
     mean, ens = runs[0], runs[1:]
+    if not spread:
+        return PendulumRun(rows, mean[0], mean[1], mean[2], np.full((rows.size, 3, 3), np.nan),
+                           last, gap)
     dev = ens - ens.mean(axis=0)
     out = np.einsum("dik,djk->kij", dev, dev) / (DRAWS - 1)
     return PendulumRun(rows, mean[0], mean[1], mean[2], out, last, gap)

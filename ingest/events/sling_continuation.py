@@ -71,20 +71,21 @@ def release_horizon(t: np.ndarray, theta_d: np.ndarray, last: int,
 
 
 def continued_sling(est: dict[str, np.ndarray], scene: Scene, last: int,
-                    cov_phi: np.ndarray, seed: int = 20261125, until: float | None = None
-                    ) -> SlingContinuation:
+                    cov_phi: np.ndarray, seed: int = 20261125, until: float | None = None,
+                    spread: bool = True) -> SlingContinuation:
     """φ carried on from row ``last`` (the sling track's last valid row) up to the time
     ``until`` (s; None: the end of ``est``) over the rows of ``est`` (a smoother's output:
     ``t`` s, ``theta`` rad, ``theta_d`` rad/s, ``theta_dd`` rad/s², ``phi``, ``phi_d`` at
     row ``last``) by the sling's pendulum equation driven by the smoothed beam
     (:func:`.driven_pendulum.driven_pendulum`: not across a gap of the beam's rows, ``gap``
     then the time it stopped at); ``cov_phi`` (3, 3): the smoother's covariance of (φ, φ̇,
-    φ̈) at that row (SI)."""
+    φ̈) at that row (SI). ``spread=False``: φ alone, its covariance NaN (the release check
+    uses φ and φ̇ only)."""
     t, theta, theta_d, theta_dd = (np.asarray(est[c], dtype=float)
                                    for c in ("t", "theta", "theta_d", "theta_dd"))
     run = driven_pendulum(
         t, theta, theta_d, theta_dd, last,
         np.array([float(est["phi"][last]), float(est["phi_d"][last])]), cov_phi,
-        "sling", scene.engine, scene.g, seed=seed, until=until)
+        "sling", scene.engine, scene.g, seed=seed, until=until, spread=spread)
     return SlingContinuation(run.rows, run.angle, run.rate, run.acc, run.cov, run.start,
                              run.gap)
