@@ -81,7 +81,7 @@ from trebuchet.ingest.smoothing.smooth import (
     validated_log,
 )
 from trebuchet.ingest.systematic_angles import systematic_angles, with_systematic_angles
-from trebuchet.ingest.uncertainty import CHUNK_ROWS, propagate
+from trebuchet.ingest.uncertainty import chunk_rows, propagate
 from trebuchet.ingest.user_calibrated import posed_log
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.loads import load_columns
@@ -465,7 +465,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
 
     prop = propagate(lambda s: _evaluate(s, phase[np.asarray(s.index)], scene, options.form,
                                          options.trough),
-                     state, cov, order=propagation_order(options), chunk=CHUNK_ROWS,
+                     state, cov, order=propagation_order(options), chunk=chunk_rows(len(state)),
                      carry=_flight_carry(phase), order_names=list(ADVISED), columns=True)
     ev_var = _event_variance(t, trigger, event_sd["trigger"], prop.value)
     ev_var += _event_variance(t, release, event_sd["release"], prop.value)

@@ -29,16 +29,24 @@ import pandas as pd
 from trebuchet.ingest.kalman import reference
 from trebuchet.ingest.kalman.kernel import compiled
 
-__all__ = ["Propagation", "Columns", "propagate", "STATE_SUFFIXES", "BAND_SD", "CHUNK_ROWS"]
+__all__ = ["Propagation", "Columns", "propagate", "STATE_SUFFIXES", "BAND_SD", "CHUNK_ROWS",
+           "chunk_rows"]
 
 STATE_SUFFIXES = ("", "_d", "_dd")
 
 #: A measured quantity's band is its mean ± BAND_SD standard deviations (figures, comparison).
 BAND_SD = 2.0
 
-#: Rows a long table's propagation evaluates at a time (``propagate(chunk=…)``): its 19
-#: evaluations of some 40 loads then hold about 2 MB, whatever the log's length.
+#: Rows a table's propagation evaluates at a time at least (``propagate(chunk=…)``, see
+#: :func:`chunk_rows`): its 19 evaluations of some 40 loads then hold about 2 MB.
 CHUNK_ROWS = 256
+
+
+def chunk_rows(n: int) -> int:
+    """Rows to evaluate at a time on a table of ``n`` rows: :data:`CHUNK_ROWS`, or a 64th
+    of the table if that is more (fewer calls on a long log; the evaluations then hold
+    about 0.14 KiB a row of the table)."""
+    return max(CHUNK_ROWS, n // 64)
 
 
 class Columns(dict):

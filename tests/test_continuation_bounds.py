@@ -113,3 +113,22 @@ def test_a_deeplabcut_frame_index_of_1e6_is_one_line_on_the_command_line(tmp_pat
     assert len(err) == 1 and "Traceback" not in err[0]
     assert "8333.33 s" in err[0] and "row 263" in err[0]
     assert not (tmp_path / "loads.csv").exists()
+
+
+def test_the_compiled_integration_takes_scipys_steps(horsdal, swinging):
+    """The pendulums' DOP853 compiled (``pendulum_kernel``) against scipy's ``solve_ivp``
+    with the numpy right-hand side (``numpy_passes``): the same method and step control;
+    their sums round differently, and the error estimate (a difference of nearly equal
+    stages) turns that into step sizes a few 1e-7 apart, so the results agree to the
+    integrator's tolerance, not to the last bit."""
+    from trebuchet.ingest.kalman.reference import numpy_passes
+
+    est, cols, last, _ = swinging
+    cov = est.attrs["smoothing"].cov["phi"][last][:3, :3]
+    until = float(cols["t"][last + 150])
+    fast = continued_sling(cols, horsdal, last, cov, until=until)
+    with numpy_passes():
+        slow = continued_sling(cols, horsdal, last, cov, until=until)
+    for a, b in ((fast.phi, slow.phi), (fast.phi_d, slow.phi_d), (fast.phi_dd, slow.phi_dd)):
+        assert np.max(np.abs(a - b)) <= 1e-6 * np.max(np.abs(b))
+    assert np.max(np.abs(fast.cov - slow.cov)) <= 1e-4 * np.max(np.abs(slow.cov))

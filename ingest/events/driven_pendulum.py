@@ -22,13 +22,13 @@ from __future__ import annotations
 from bisect import bisect_right
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from trebuchet.ingest.events.pendulum_kernel import KINDS, integrate
 from trebuchet.ingest.kalman import reference
-from trebuchet.ingest.kalman.kernel import compiled
 from trebuchet.model import dynamics as dyn
 
 __all__ = ["DRAWS", "MAX_GAP_FRAMES", "FORMULAS", "PendulumRun", "driven_pendulum"]
@@ -41,24 +41,10 @@ DRAWS = 24
 MAX_GAP_FRAMES = 10.0
 
 
-class Lengths(NamedTuple):
-    """An engine's lengths (m), as the compiled pendulum formulas read them (``e.L1`` …)."""
-
-    L1: float
-    L2: float
-    L3: float
-    L4: float
-
-
 #: The pendulums hung from the beam, each the model's own formula (rad/s², numpy-broadcasting):
 #: the sling from the spigot (phase II), the hinged counterweight from the hinge.
 FORMULAS: dict[str, Callable[..., Any]] = {
     "sling": dyn.sling_pendulum_phi_dd, "counterweight": dyn.counterweight_pendulum_psi_dd}
-
-# the same formulas compiled by numba (their source, not a copy: one formula in one place)
-_sling_dd = compiled(dyn.sling_pendulum_phi_dd)
-_counterweight_dd = compiled(dyn.counterweight_pendulum_psi_dd)
-
 
 @dataclass(frozen=True, eq=False)
 class PendulumRun:
@@ -123,66 +109,21 @@ class _Driver:
         return out
 
 
-def _right_hand_side(pendulum: str, x: np.ndarray, ys: np.ndarray, shift: np.ndarray,
-                     engine: Any, g: float) -> Callable[[float, np.ndarray], np.ndarray]:
-    """``rate(s, y)`` of the ensemble for ``solve_ivp``: the members' angles then their rates
-    in ``y``; the beam's drivers ``ys`` (4, k: θ, θ̇, θ̈, θ̈'s sd) at the times ``x`` (k,);
-    each member's θ̈ shifted by ``shift`` times θ̈'s sd."""
+def _numpy_rate(pendulum: str, x: np.ndarray, ys: np.ndarray, shift: np.ndarray,
+                engine: Any, g: float) -> Callable[[float, np.ndarray], np.ndarray]:
+    """``rate(s, y)`` of the ensemble for ``solve_ivp`` in numpy (the compiled integration's
+    reference, :mod:`.pendulum_kernel`): the members' angles then their rates in ``y``; the
+    beam's drivers ``ys`` (4, k: θ, θ̇, θ̈, θ̈'s sd) at the times ``x`` (k,); each member's θ̈
+    shifted by ``shift`` times θ̈'s sd."""
     m = shift.size
-    if reference.active():
-        drive = _Driver(x, tuple(ys))
-        formula = FORMULAS[pendulum]
+    drive = _Driver(x, tuple(ys))
+    formula = FORMULAS[pendulum]
 
-        def rate(s: float, y: np.ndarray) -> np.ndarray:
-            th, th_d, th_dd, th_dd_sd = drive(s)
-            return np.concatenate([y[m:], formula(th, th_d, th_dd + shift * th_dd_sd, y[:m],
-                                                  engine, g)])
-        return rate
-    with np.errstate(invalid="ignore", divide="ignore"):
-        slopes = np.ascontiguousarray(np.diff(ys, axis=1) / np.diff(x))
-    kind = 0 if pendulum == "sling" else 1
-    x, ys, shift = (np.ascontiguousarray(v, dtype=np.float64) for v in (x, ys, shift))
-    params = np.array([engine.L1, engine.L2, engine.L3, engine.L4, g], dtype=np.float64)
-    return lambda s, y: _rate(kind, float(s), y, x, ys, slopes, shift, params)
-
-
-def _drive_at(s, x, ys, slopes, out):  # noqa: ANN001, ANN201 - numba
-    """:class:`_Driver` compiled: the four drivers at time ``s`` into ``out`` (4,)."""
-    n = x.shape[0]
-    j = np.searchsorted(x, s, side="right") - 1
-    if j < 0 or j >= n - 1 or s == x[j]:
-        col = 0 if j < 0 else j
-        for q in range(4):
-            out[q] = ys[q, col]
-        return
-    for q in range(4):
-        v = slopes[q, j] * (s - x[j]) + ys[q, j]
-        if v != v:
-            v = slopes[q, j] * (s - x[j + 1]) + ys[q, j + 1]
-            if v != v and ys[q, j] == ys[q, j + 1]:
-                v = ys[q, j]
-        out[q] = v
-
-
-def _rate(kind, s, y, x, ys, slopes, shift, params):  # noqa: ANN001, ANN201 - numba
-    """The right-hand side of the ensemble (compiled): ``y`` the members' angles then their
-    rates; ``kind`` 0 the sling, 1 the counterweight; ``params`` L1, L2, L3, L4 (m), g."""
-    m = shift.shape[0]
-    drive = np.empty(4)
-    _drive_at(s, x, ys, slopes, drive)
-    out = np.empty(2 * m)
-    out[:m] = y[m:]
-    e = Lengths(params[0], params[1], params[2], params[3])
-    th_dd = drive[2] + shift * drive[3]
-    if kind == 0:
-        out[m:] = _sling_dd(drive[0], drive[1], th_dd, y[:m], e, params[4])
-    else:
-        out[m:] = _counterweight_dd(drive[0], drive[1], th_dd, y[:m], e, params[4])
-    return out
-
-
-_drive_at = compiled(_drive_at)
-_rate = compiled(_rate)
+    def rate(s: float, y: np.ndarray) -> np.ndarray:
+        th, th_d, th_dd, th_dd_sd = drive(s)
+        return np.concatenate([y[m:], formula(th, th_d, th_dd + shift * th_dd_sd, y[:m],
+                                              engine, g)])
+    return rate
 
 
 def driven_pendulum(t: np.ndarray, theta: np.ndarray, theta_d: np.ndarray,
@@ -197,8 +138,9 @@ def driven_pendulum(t: np.ndarray, theta: np.ndarray, theta_d: np.ndarray,
     "counterweight") for the ``engine`` (its lengths, m) and gravity ``g`` (m/s²), from
     ``state`` (angle, rate) at ``last`` with ``cov`` (3, 3) its smoothed covariance of
     (angle, rate, acceleration) there. With ``theta_dd_sd`` each member's θ̈ is shifted by
-    a drawn multiple of it. The right-hand side is compiled (its numpy form within
-    :func:`~trebuchet.ingest.kalman.reference.numpy_passes`). ``spread=False``: the
+    a drawn multiple of it. Integrated compiled (:mod:`.pendulum_kernel`; within
+    :func:`~trebuchet.ingest.kalman.reference.numpy_passes` by scipy's ``solve_ivp`` with a
+    numpy right-hand side). ``spread=False``: the
     smoothed start alone, no ensemble, the covariance NaN (where only the angle is used:
     the ensemble's wider members set the integrator's steps, twice to four times as many)."""
     formula = FORMULAS[pendulum]
@@ -222,11 +164,16 @@ def driven_pendulum(t: np.ndarray, theta: np.ndarray, theta_d: np.ndarray,
     # θ̈'s error, in its sd, per member (none for the smoothed start)
     shift = np.r_[0.0, rng.standard_normal(DRAWS)] if shifted and spread else np.zeros(m)
 
-    sol = solve_ivp(_right_hand_side(pendulum, x, ys, shift, engine, g),
-                    (t[last], t[rows[-1]]), y0.T.ravel(), t_eval=t[rows], method="DOP853",
-                    rtol=1e-9, atol=1e-12)
-    y = np.full((2 * m, rows.size), np.nan)
-    y[:, : sol.y.shape[1]] = sol.y
+    span, start = (t[last], t[rows[-1]]), y0.T.ravel()
+    if reference.active():
+        sol = solve_ivp(_numpy_rate(pendulum, x, ys, shift, engine, g), span, start,
+                        t_eval=t[rows], method="DOP853", rtol=1e-9, atol=1e-12)
+        y = np.full((2 * m, rows.size), np.nan)
+        y[:, : sol.y.shape[1]] = sol.y
+    else:
+        params = [engine.L1, engine.L2, engine.L3, engine.L4, g]
+        y, _ = integrate(KINDS.index(pendulum), x, ys, shift, np.array(params, dtype=float),
+                         *span, start, t[rows], 1e-9, 1e-12)
     angle, angle_d = y[:m], y[m:]  # (members, k)
     acc = formula(theta[rows], theta_d[rows], theta_dd[rows] + shift[:, None] * sd[rows],
                   angle, engine, g)
