@@ -470,9 +470,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     ev_var = _event_variance(t, trigger, event_sd["trigger"], prop.value)
     ev_var += _event_variance(t, release, event_sd["release"], prop.value)
     sd = prop.sd  # √(sd² + the events' variance), in place (a 60 s log: 20 MB an array)
-    sd **= 2
-    sd += ev_var
-    np.sqrt(sd, out=sd)
+    np.sqrt(np.add(np.square(sd, out=sd), ev_var, out=sd), out=sd)
 
     notes = list(fit.notes)
     if trigger is None:
