@@ -1,0 +1,114 @@
+"""The figures of a design without its table, reduced in the generated C: sweeps and the optimiser.
+
+:func:`shot_summary` integrates the shot in the C engine (:mod:`trebuchet.model.c_engine`) and
+reduces every figure of ``sweep.summarize`` in C over the rows ``simulate`` would tabulate at
+the same output step (the same times, the same generated formulas): no DataFrame, no table,
+and the same numbers as ``summarize(simulate(scene))`` to rounding. It adds the counterweight's
+clearance (``cw_clearance``: the lowest height of its centre above the ground from the trigger
+to :data:`CLEARANCE_WINDOW` s past the release, on the rows at the same step) and the energy
+the bearings' friction has taken by the release (``loss_at_release``, J, and ``loss_share``
+of ΔU; 0 without friction).
+
+A design the model refuses raises the :class:`~trebuchet.errors.TrebuchetInputError` that
+``simulate`` raises (the numba kernel words it, as ``simulate`` does); without a C compiler
+:class:`~trebuchet.model.c_engine.EngineUnavailable` is raised (the caller's own path, such as
+``sweep.summarize(simulate(...))``, gives the same figures).
+"""
+
+from __future__ import annotations
+
+import math
+
+from trebuchet.model import c_engine
+from trebuchet.model.flight import flight_summary
+from trebuchet.model.output_size import check_output_size
+from trebuchet.model.scene import Scene
+from trebuchet.model.settings import DEFAULT_AFTER_RELEASE
+from trebuchet.model.simulate import DEFAULT_DRY_FIRE, integrate, resolve_rtol, simulate
+
+__all__ = ["SUMMARY_KEYS", "CLEARANCE_WINDOW", "shot_summary"]
+
+#: s past the release over which ``cw_clearance`` is taken (a dry fire: the whole swing).
+CLEARANCE_WINDOW = 0.5
+
+#: The keys of :func:`shot_summary`, with their units: ``sweep.SUMMARY_COLUMNS``, then the
+#: counterweight's clearance and the friction's loss at release.
+SUMMARY_KEYS: dict[str, str] = {
+    "lift_off": "s, lift-off of the projectile from the trough",
+    "release_time": "s, release after the trigger",
+    "release_speed": "m/s, projectile speed at release",
+    "release_angle": "rad, projectile velocity above horizontal at release",
+    "release_angle_deg": "°, the same in degrees (as the scene file's _deg keys)",
+    "release_height": "m, projectile height at release",
+    "range": "m, range from the pivot (the scene's flight: vacuum or drag)",
+    "F_S_peak": "N, peak |F_S| (sling on projectile)",
+    "F_H_peak": "N, peak |F_H| (beam on counterweight at the hinge)",
+    "F_R_peak": "N, peak |F_R| (bearing reaction at the pivot)",
+    "F_R_perp_peak": "N, peak |F_R_perp| (reaction across the beam: bending)",
+    "torque_peak": "N m, peak |torque| on the beam about the pivot",
+    "sling_tension_min": "N, least sling tension while held (negative: slack, model invalid)",
+    "energy_share": "1, projectile's mechanical energy at release over ΔU",
+    "energy_drift_rel": "1, max |E_m + E_M + E_beam (+ losses)| over ΔU (solver accuracy)",
+    "cw_clearance": "m, lowest height of the counterweight's centre above the ground, "
+                    f"trigger to {CLEARANCE_WINDOW:g} s past the release",
+    "loss_at_release": "J, energy the bearings' friction has taken by the release",
+    "loss_share": "1, loss_at_release over ΔU",
+}
+
+
+def shot_summary(scene: Scene, *, rtol: float | str = "default", dt: float = 1e-3,
+                 after_release: float | None = None) -> dict[str, float]:
+    """The :data:`SUMMARY_KEYS` of a shot of ``scene`` (SI units; NaN where the shot has no
+    such thing: a dry fire has no release, a shot from the sling no lift-off).
+
+    Parameters
+    ----------
+    scene : Scene
+    rtol : float or str
+        Integrator tolerance or a preset of ``simulate.ACCURACY``, as :func:`simulate`.
+    dt : float
+        Output step (s) of the rows the peaks are taken over, as ``simulate``'s ``dt``.
+    after_release : float, optional
+        s of phase III the peaks cover (default 0.5 s; a dry fire 1.5 s), as ``simulate``.
+
+    Raises TrebuchetInputError where ``simulate`` would, EngineUnavailable without the C.
+    """
+    rtol = resolve_rtol(rtol)
+    dry = scene.projectile == "none"
+    after = after_release if after_release is not None else (
+        DEFAULT_DRY_FIRE if dry else DEFAULT_AFTER_RELEASE)
+    check_output_size(dt, after)
+    c_engine.library()  # EngineUnavailable without a compiler: the caller's own path then
+    shot = c_engine.CShot.start(scene, rtol, after)
+    if shot is None:  # refused: the numba kernel words the refusal, as simulate does
+        integrate(scene, rtol=rtol, method="numba-DOP853", after_release=after)
+        raise RuntimeError(f"{scene.source}: the C engine refused the shot "
+                           f"({shot_refusal(scene, rtol, after)}) where the numba kernel did not")
+    t_clear = shot.t_end if dry else shot.t_release + CLEARANCE_WINDOW
+    fig, _, finite = shot.figures(dt, t_clear)
+    if not finite:  # simulate names the column and the time
+        simulate(scene, rtol=rtol, dt=dt, after_release=after, method="c-DOP853")
+    delta_u = scene.delta_U
+    rs = shot.release_state
+    fl = flight_summary(rs, scene.g, scene.flight, scene.engine.m) if rs else None
+    nan = math.nan
+    return {
+        "lift_off": shot.t_lift, "release_time": shot.t_release,
+        "release_speed": fl["release_speed"] if fl else nan,
+        "release_angle": fl["release_angle"] if fl else nan,
+        "release_angle_deg": math.degrees(fl["release_angle"]) if fl else nan,
+        "release_height": fl["release_height"] if fl else nan,
+        "range": fl["range"] if fl else nan,
+        **{k: fig[k] for k in ("F_S_peak", "F_H_peak", "F_R_peak", "F_R_perp_peak",
+                               "torque_peak", "sling_tension_min")},
+        "energy_share": fig["E_m_release"] / delta_u,
+        "energy_drift_rel": fig["energy_drift"] / delta_u,
+        "cw_clearance": fig["cw_clearance"],
+        "loss_at_release": fig["loss_at_release"],
+        "loss_share": fig["loss_at_release"] / delta_u,
+    }
+
+
+def shot_refusal(scene: Scene, rtol: float, after_release: float) -> str:
+    """The C engine's own reason for refusing the shot (its words, not ``simulate``'s)."""
+    return c_engine.CShot(scene, rtol, after_release).refusal
