@@ -76,6 +76,15 @@ class Trajectory:
         return sum(p.nfev for p in self.phases)
 
     @property
+    def engine(self) -> str:
+        """What integrated the shot: ``"c"``, ``"numba"``, ``"python"`` or ``"scipy"``."""
+        if self.shot is not None:
+            return "c"
+        if self.method in ("DOP853", "c-DOP853", "numba-DOP853"):
+            return "numba"
+        return "python" if self.method == "python-DOP853" else "scipy"
+
+    @property
     def friction(self) -> bool:
         """True when the engine has friction: every phase's state then ends with the energies
         lost at pivot and hinge (in units of :func:`dynamics.energy_scale`)."""
@@ -465,7 +474,7 @@ def simulate(scene: Scene | str | Path,
     run.attrs["flight"] = (None if traj.release_state is None else flight_summary(
         traj.release_state, scene.g, scene.flight, scene.engine.m))
     run.attrs["diagnostics"] = {
-        "method": method, "rtol": rtol, "nfev": traj.nfev,
+        "method": method, "engine": traj.engine, "rtol": rtol, "nfev": traj.nfev,
         "energy_drift": drift, "energy_drift_rel": drift / delta_u, "delta_U": delta_u,
         "slack": slack, "advice": _advice(scene, traj),
     }

@@ -1,8 +1,11 @@
-"""Compile (or load from numba's cache) every kernel a user's first call would wait for.
+"""Compile (or load from their caches) the engines and kernels a user's first call would wait for.
 
 ``make install`` runs ``python -m trebuchet.warm_up``: a shot of the paper's engine with all
-its outputs (the simulator's and the load columns' kernels, ~20 s when fresh) and the smoothing
-of a short synthetic log (the Kalman filter's kernel, ~2 s).
+its outputs in the generated C (:mod:`trebuchet.model.c_engine`: sympy and gcc, ~20 s when
+fresh; without a compiler one line says so and the numba kernel simulates), the same shot with
+the numba kernels (the fallback, the ones that word a refused shot, and the load columns of
+measured logs: ~20 s when fresh) and the smoothing of a short synthetic log (the Kalman
+filter's kernel, ~2 s).
 """
 
 from __future__ import annotations
@@ -21,8 +24,9 @@ def warm_up_model() -> None:
     from trebuchet.model.simulate import integrate, simulate
 
     scene = Scene.from_toml(horsdal_scene_path())
-    simulate(scene)
-    for p in integrate(scene).phases:
+    simulate(scene)  # builds the C engine
+    simulate(scene, method="numba-DOP853")
+    for p in integrate(scene, method="numba-DOP853").phases:
         p.sol(np.array([p.t0, p.t1]))
 
 
