@@ -373,15 +373,24 @@ def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formu
 
 FORMULAS: tuple[Formula, ...] = _all_formulas()
 
-#: The rows of the in-process engine (``simulate``'s columns after ``t`` and ``phase``): the
-#: angles (φ NaN after release), every column of :func:`forces.row_loads` (direct form), and
-#: the energies lost by friction (J; 0 without).
-ROW_NAMES = (*ANGLE_NAMES, *frc.ROW_COLUMNS, "E_loss_pivot", "E_loss_hinge")
+#: The rows of the in-process engine: ``simulate``'s columns after ``t`` and ``phase`` (the
+#: angles, φ NaN after release; every column of :func:`forces.row_loads`, direct form; the
+#: energies lost by friction, J, 0 without), then the height of the counterweight's centre
+#: ``y_M`` (m, for the figures of a design; not a column of the table).
+ROW_NAMES = (*ANGLE_NAMES, *frc.ROW_COLUMNS, "E_loss_pivot", "E_loss_hinge", "y_M")
 
 
 def _counterweight_height(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
     return [kin.counterweight_position_xy(lib.cos(x["th"]), lib.sin(x["th"]), lib.cos(x["ps"]),
                                           lib.sin(x["ps"]), e, H)[1]]
+
+
+def _rows(phase: int, friction: bool) -> Build:
+    outputs = _outputs(phase, friction, ROW_NAMES[:-1])
+
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+        return [*outputs(e, g, H, x, lib), *_counterweight_height(e, g, H, x, lib)]
+    return build
 
 
 def _engine_formulas() -> tuple[Formula, ...]:
@@ -397,7 +406,7 @@ def _engine_formulas() -> tuple[Formula, ...]:
                                    f"phase {phase}{' (dry fire)' if dry else ''}: every column "
                                    "of simulate's rows (dynamics + forces.row_loads)",
                                    (*_STATE[phase], *extra, *_REST), ROW_NAMES,
-                                   _outputs(phase, friction, ROW_NAMES), fixed, dry=dry,
+                                   _rows(phase, friction), fixed, dry=dry,
                                    friction=friction))
     out.append(Formula("counterweight_height", "kinematics.counterweight_position_xy: the "
                        "height of the counterweight's centre (m)", ("th", "ps"), ("y_M",),

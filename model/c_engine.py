@@ -50,8 +50,9 @@ __all__ = ["EngineUnavailable", "available", "require", "library", "library_path
 #: Angles, rates, accelerations: the first columns of every row (rad, rad/s, rad/s²).
 ANGLE_NAMES = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "psi_dd",
                "phi_dd")
-#: The columns the C computes for a row, in its order (checked against the library's).
-ROW_NAMES = (*ANGLE_NAMES, *ROW_COLUMNS, "E_loss_pivot", "E_loss_hinge")
+#: The columns the C computes for a row, in its order (checked against the library's): the
+#: table's, then the height of the counterweight's centre (m).
+ROW_NAMES = (*ANGLE_NAMES, *ROW_COLUMNS, "E_loss_pivot", "E_loss_hinge", "y_M")
 #: The generated formulas' parameters (``q``), in order (checked against the library's).
 PARAMETER_NAMES = ("L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m", "I", "offset", "g", "H",
                    "pivot_friction", "hinge_friction", "friction_rate")
@@ -239,7 +240,7 @@ def _ptr(a: np.ndarray, kind: type = ctypes.c_double) -> ctypes._Pointer:
 def table_names(with_friction: bool) -> tuple[str, ...]:
     """``simulate``'s columns: ``t``, ``phase``, the angles and every load column, the
     friction's only where the engine has friction (then with the lost energies)."""
-    rows = [n for n in ROW_NAMES if with_friction or (
+    rows = [n for n in ROW_NAMES[:-1] if with_friction or (
         n not in FRICTION_COLUMNS and not n.startswith("E_loss_"))]
     return ("t", "phase", *rows)
 

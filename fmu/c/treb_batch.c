@@ -150,6 +150,27 @@ static int may_be_nan(const TrebScene *sc, int kind, int j)
     return kind == 3 && sc->drag && (projectile_column(j) || j == TREB_ROW_E_m);
 }
 
+/* Every value of the row finite where simulate's table must be (those that may be NaN, see
+ * may_be_nan, are set to 0: the figures do not use them). */
+static int row_finite(const TrebScene *sc, int kind, double *row)
+{
+    if (kind == 3) row[TREB_ROW_phi] = row[TREB_ROW_phi_d] = row[TREB_ROW_phi_dd] = 0.0;
+    if (sc->projectile == 3 || (kind == 3 && sc->drag)) {
+        row[TREB_ROW_x_m] = row[TREB_ROW_y_m] = row[TREB_ROW_vx_m] = row[TREB_ROW_vy_m] = 0.0;
+        if (sc->drag) row[TREB_ROW_E_m] = 0.0;
+    }
+    double a = 0.0, b = 0.0, c = 0.0, d = 0.0;  /* x - x: 0, or NaN where x is not finite */
+    int j = 0;
+    for (; j + 4 <= TREB_N_ROWS; j += 4) {
+        a += row[j] - row[j];
+        b += row[j + 1] - row[j + 1];
+        c += row[j + 2] - row[j + 2];
+        d += row[j + 3] - row[j + 3];
+    }
+    for (; j < TREB_N_ROWS; j++) a += row[j] - row[j];
+    return a + b + c + d == 0.0;
+}
+
 /* The rows at the n times t: row column j into out's row dest[j] (none where dest[j] < 0),
  * t into out's row dest_t (none if < 0); out is (rows, n), C order. phase[m]: the phase of
  * time m (at an event, the one that ends there). bad: the first of out's rows with a value
@@ -275,9 +296,7 @@ static void reduce_row(Extrema *x, const TrebShot *s, int kind, double t, const 
                                           + row[TREB_ROW_E_loss_hinge];
         x->time[TREB_FIG_E_M_RELEASE] = x->time[TREB_FIG_LOSS_RELEASE] = t;
     }
-    double th_ps[2] = {row[TREB_ROW_theta], row[TREB_ROW_psi]}, y_M;
-    treb_counterweight_height(s->sc.q, th_ps, &y_M);
-    least(x, TREB_FIG_CLEARANCE, y_M, t);
+    least(x, TREB_FIG_CLEARANCE, row[TREB_ROW_y_M], t);
 }
 
 /* The figures of the shot over the rows simulate tabulates at step dt (through phase III's
@@ -285,7 +304,8 @@ static void reduce_row(Extrema *x, const TrebShot *s, int kind, double t, const 
  * the energy drift, the projectile's energy and the friction's loss at release (J); and the
  * lowest height of the counterweight's centre to t_clear (s; the rows at step dt beyond the
  * end, and t_clear). out: the TREB_N_FIGURES values (NAN: none), then the time of each.
- * bad: as treb_engine_rows' (in TREB_ROW_* order) with the time in bad_t. */
+ * bad[1]: the first row (its index) with a value that is not finite where simulate's table
+ * must be (-1: none). */
 int treb_engine_summary(TrebShot *s, double dt, double t_clear, double *out, long *bad,
                         char *msg)
 {
@@ -307,11 +327,10 @@ int treb_engine_summary(TrebShot *s, double dt, double t_clear, double *out, lon
         int kind = s->phase[k];
         row_of(&s->sc, kind, y, row);
         flight_of(s, kind, t, row);
-        for (int j = 0; j < TREB_N_ROWS && (bad[0] < 0 || j < bad[0]); j++)
-            if (!isfinite(row[j]) && !may_be_nan(&s->sc, kind, j)) {
-                bad[0] = j;
-                bad[1] = m;
-            }
+        if (bad[0] < 0 && !row_finite(&s->sc, kind, row)) {
+            bad[0] = 0;
+            bad[1] = m;
+        }
         reduce_row(&x, s, kind, t, row, e_release);
     }
     if (t_clear > t_end) {  /* the clearance's window runs on past the table's end */
