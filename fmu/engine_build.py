@@ -23,12 +23,16 @@ from trebuchet.fmu import codegen
 from trebuchet.fmu.build import CFLAGS
 from trebuchet.fmu.csources import GLUE_DIR, write_sources
 
-__all__ = ["ENGINE_GLUE", "ENGINE_SOURCES", "write_engine_sources", "build_engine", "main"]
+__all__ = ["ENGINE_GLUE", "ENGINE_SOURCES", "ENGINE_CFLAGS", "write_engine_sources", "build_engine",
+           "main"]
 
 #: The engine's hand-written files beside the FMU's (``fmu/c/``).
 ENGINE_GLUE = ("treb_batch.h", "treb_batch.c")
 #: The translation units of the engine's library.
 ENGINE_SOURCES = ("treb_formulas.c", "treb_rows.c", "treb_shot.c", "treb_batch.c")
+#: The FMU's flags, at -O3 and with sqrt inlined (no errno): the same numbers bit for bit
+#: (ISO C99 contracts no multiply-add; nothing is reassociated), ~10 % faster.
+ENGINE_CFLAGS = ("-O3", "-fno-math-errno", *(f for f in CFLAGS if f != "-O2"))
 
 
 def write_engine_sources(folder: Path) -> list[Path]:
@@ -55,7 +59,7 @@ def build_engine(out: Path, compiler: str = "gcc") -> Path:
         src = Path(tmp)
         write_engine_sources(src)
         lib = src / out.name
-        cmd = [compiler, *CFLAGS, "-fPIC", "-shared", "-I", str(src),
+        cmd = [compiler, *ENGINE_CFLAGS, "-fPIC", "-shared", "-I", str(src),
                *(str(src / name) for name in ENGINE_SOURCES), "-o", str(lib), "-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
