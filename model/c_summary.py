@@ -26,7 +26,7 @@ from trebuchet.model.scene import Scene
 from trebuchet.model.settings import DEFAULT_AFTER_RELEASE
 from trebuchet.model.simulate import DEFAULT_DRY_FIRE, integrate, resolve_rtol, simulate
 
-__all__ = ["SUMMARY_KEYS", "CLEARANCE_WINDOW", "shot_summary"]
+__all__ = ["SUMMARY_KEYS", "EXTREMA", "CLEARANCE_WINDOW", "shot_summary", "summary_and_times"]
 
 #: s past the release over which ``cw_clearance`` is taken (a dry fire: the whole swing).
 CLEARANCE_WINDOW = 0.5
@@ -56,10 +56,24 @@ SUMMARY_KEYS: dict[str, str] = {
 }
 
 
+#: The keys of :func:`shot_summary` that are extrema of the rows, with a time.
+EXTREMA = ("F_S_peak", "F_H_peak", "F_R_peak", "F_R_perp_peak", "torque_peak",
+           "sling_tension_min", "cw_clearance")
+
+
 def shot_summary(scene: Scene, *, rtol: float | str = "default", dt: float = 1e-3,
                  after_release: float | None = None) -> dict[str, float]:
     """The :data:`SUMMARY_KEYS` of a shot of ``scene`` (SI units; NaN where the shot has no
-    such thing: a dry fire has no release, a shot from the sling no lift-off).
+    such thing: a dry fire has no release, a shot from the sling no lift-off); see
+    :func:`summary_and_times`."""
+    return summary_and_times(scene, rtol=rtol, dt=dt, after_release=after_release)[0]
+
+
+def summary_and_times(scene: Scene, *, rtol: float | str = "default", dt: float = 1e-3,
+                      after_release: float | None = None
+                      ) -> tuple[dict[str, float], dict[str, float]]:
+    """The :data:`SUMMARY_KEYS` of a shot of ``scene`` and the time (s) of each extremum of
+    :data:`EXTREMA` (the first row that holds it; NaN where there is none).
 
     Parameters
     ----------
@@ -85,9 +99,11 @@ def shot_summary(scene: Scene, *, rtol: float | str = "default", dt: float = 1e-
         raise RuntimeError(f"{scene.source}: the C engine refused the shot "
                            f"({shot_refusal(scene, rtol, after)}) where the numba kernel did not")
     t_clear = shot.t_end if dry else shot.t_release + CLEARANCE_WINDOW
-    fig, _, finite = shot.figures(dt, t_clear)
+    fig, when, finite = shot.figures(dt, t_clear)
     if not finite:  # simulate names the column and the time
         simulate(scene, rtol=rtol, dt=dt, after_release=after, method="c-DOP853")
+        raise RuntimeError(f"{scene.source}: a row of the shot is not finite where simulate's "
+                           "table found none")
     delta_u = scene.delta_U
     rs = shot.release_state
     fl = flight_summary(rs, scene.g, scene.flight, scene.engine.m) if rs else None
@@ -106,7 +122,7 @@ def shot_summary(scene: Scene, *, rtol: float | str = "default", dt: float = 1e-
         "cw_clearance": fig["cw_clearance"],
         "loss_at_release": fig["loss_at_release"],
         "loss_share": fig["loss_at_release"] / delta_u,
-    }
+    }, {k: when[k] for k in EXTREMA}
 
 
 def shot_refusal(scene: Scene, rtol: float, after_release: float) -> str:

@@ -16,7 +16,7 @@ import pytest
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.model import c_engine
 from trebuchet.model import kinematics as kin
-from trebuchet.model.c_summary import SUMMARY_KEYS, shot_summary
+from trebuchet.model.c_summary import EXTREMA, SUMMARY_KEYS, shot_summary, summary_and_times
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import integrate, simulate
 from trebuchet.model.sweep import SUMMARY_COLUMNS, summarize
@@ -245,6 +245,20 @@ def test_shot_summary_equals_summarize_of_simulate(name):
     if name == "horsdal_friction":  # issue 22: 12.6 kJ, 5.0 % of ΔU by the release
         assert got["loss_at_release"] == pytest.approx(12.6e3, rel=5e-3)
         assert got["loss_share"] == pytest.approx(0.050, abs=5e-4)
+
+
+def test_the_time_of_each_extremum_is_its_first_row(horsdal):
+    got, times = summary_and_times(horsdal)
+    run = simulate(horsdal, method="numba-DOP853")
+    t = run["t"].to_numpy()
+    for key, col in (("F_S_peak", "F_S_abs"), ("F_R_peak", "F_R_abs"),
+                     ("torque_peak", "torque")):
+        assert times[key] == pytest.approx(t[np.argmax(np.abs(run[col].to_numpy()))], abs=1e-12)
+    held = run[run["phase"] <= 2]
+    assert times["sling_tension_min"] == pytest.approx(
+        held["t"].to_numpy()[np.argmin(held["sling_tension"].to_numpy())], abs=1e-12)
+    assert 0.0 <= times["cw_clearance"] <= run.attrs["events"]["release"] + 0.5
+    assert set(times) == set(EXTREMA) <= set(got)
 
 
 def test_shot_summary_at_another_step_and_a_short_phase_three(horsdal):
