@@ -259,7 +259,7 @@ def _pieces(phase: int) -> Build:
         th, ps, ph, th_d, ps_d, ph_d = (y[0], y[1], y[2], y[3], y[4], y[5]) if phase == 2 else (
             y[0], y[1], 0.0, y[2], y[3], 0.0)
         p = dyn.friction_pieces(phase, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
-        return [*p, *dyn.friction_start(p, lib)]
+        return [*p[:len(PIECES)], *dyn.friction_start(p, lib)]
     return build
 
 

@@ -155,6 +155,8 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "treb_engine_start": (i, [p, d, ctypes.POINTER(ctypes.c_int), d, ctypes.c_char_p]),
         "treb_engine_info": (None, [p, d]),
         "treb_engine_states": (i, [p, i, d, ctypes.c_long, d, ctypes.c_char_p]),
+        "treb_engine_step_count": (ctypes.c_long, [p, i]),
+        "treb_engine_steps": (None, [p, i, d, d, d, d]),
         "treb_engine_rows": (i, [p, d, ctypes.c_long, long_p, ctypes.c_long, d, long_p, long_p,
                                  ctypes.c_char_p]),
         "treb_engine_summary": (i, [p, ctypes.c_double, ctypes.c_double, d, long_p,
@@ -315,11 +317,14 @@ class CShot:
             return None
         return dict(zip(("t", "x", "y", "vx", "vy"), map(float, self.release), strict=True))
 
+    def state_size(self, k: int) -> int:
+        """The size of the state of the phase of index ``k`` (with the lost energies)."""
+        return (6 if self.kinds[k] == 2 else 4) + (2 if has_friction(self.scene.engine) else 0)
+
     def states(self, k: int, t: np.ndarray) -> np.ndarray:
         """The integrated state of the phase of index ``k`` at times ``t`` (s), shape (n, m)."""
         t = np.ascontiguousarray(t, dtype=float)
-        size = (6 if self.kinds[k] == 2 else 4) + (2 if has_friction(self.scene.engine) else 0)
-        out = np.empty((size, t.size))
+        out = np.empty((self.state_size(k), t.size))
         msg = ctypes.create_string_buffer(_MSG)
         if self._lib.treb_engine_states(self._ptr, k, _ptr(t), t.size, _ptr(out), msg):
             raise RuntimeError(msg.value.decode(errors="replace"))
@@ -387,10 +392,50 @@ class CShot:
 
 class CPhase:
     """The phase of index ``k`` of a :class:`CShot` as a phase's solution of ``simulate``'s
-    ``Trajectory``: callable at times (s) for the integrated state, and :meth:`columns`."""
+    ``Trajectory``: callable at times (s) for the integrated state, :meth:`columns`, and its
+    steps as ``shot_kernel.KernelSolution`` holds them (``kind``, ``t_steps``, ``h``,
+    ``y_steps``, ``coef``, ``y_end``: the design's peak search reduces them)."""
 
     def __init__(self, shot: CShot, k: int) -> None:
         self.shot, self.k = shot, k
+        self.kind = shot.kinds[k]
+        self._steps: tuple[np.ndarray, ...] | None = None
+
+    def _copy_steps(self) -> tuple[np.ndarray, ...]:
+        if self._steps is None:
+            lib, ptr = self.shot._lib, self.shot._ptr
+            count = lib.treb_engine_step_count(ptr, self.k)
+            n = self.shot.state_size(self.k)
+            T, H = np.empty(count), np.empty(count)
+            Y, F = np.empty((count, n)), np.empty((count, 7, n))
+            lib.treb_engine_steps(ptr, self.k, _ptr(T), _ptr(H), _ptr(Y), _ptr(F))
+            self._steps = (T, H, Y, F)
+        return self._steps
+
+    @property
+    def t_steps(self) -> np.ndarray:
+        """Start times of the steps, s."""
+        return self._copy_steps()[0]
+
+    @property
+    def h(self) -> np.ndarray:
+        """Step sizes, s."""
+        return self._copy_steps()[1]
+
+    @property
+    def y_steps(self) -> np.ndarray:
+        """States at the steps' starts, (steps, n)."""
+        return self._copy_steps()[2]
+
+    @property
+    def coef(self) -> np.ndarray:
+        """The dense output's coefficients of each step, (steps, 7, n)."""
+        return self._copy_steps()[3]
+
+    @property
+    def y_end(self) -> np.ndarray:
+        """The state at the phase's end."""
+        return self.shot.states(self.k, np.array([self.shot.t1[self.k]]))[:, 0]
 
     def __call__(self, t: np.ndarray | float) -> np.ndarray:
         out = self.shot.states(self.k, np.atleast_1d(np.asarray(t, dtype=float)))
@@ -398,5 +443,8 @@ class CPhase:
 
     def columns(self, t: np.ndarray, out: np.ndarray) -> None:
         """Angles, rates, accelerations (rows of :data:`ANGLE_NAMES`; rad, rad/s, rad/s²) at
-        times ``t`` (s) inside the phase into ``out`` (9 × len(t))."""
-        out[:] = self.shot.rows(t, ANGLE_NAMES)[0]
+        times ``t`` (s) inside the phase into ``out`` (9 × len(t)); with 11 rows the states of
+        the energies lost at pivot and hinge follow (in units of ``dynamics.energy_scale``)."""
+        out[:9] = self.shot.rows(t, ANGLE_NAMES)[0]
+        if out.shape[0] > 9:
+            out[9:] = self.shot.states(self.k, t)[-2:]

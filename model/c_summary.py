@@ -5,9 +5,10 @@ reduces every figure of ``sweep.summarize`` in C over the rows ``simulate`` woul
 the same output step (the same times, the same generated formulas): no DataFrame, no table,
 and the same numbers as ``summarize(simulate(scene))`` to rounding. It adds the counterweight's
 clearance (``cw_clearance``: the lowest height of its centre above the ground from the trigger
-to :data:`CLEARANCE_WINDOW` s past the release, on the rows at the same step) and the energy
-the bearings' friction has taken by the release (``loss_at_release``, J, and ``loss_share``
-of ΔU; 0 without friction).
+to :data:`CLEARANCE_WINDOW` s past the release, on the rows at the same step) and the heat the
+bearings' friction has made by the release (``E_loss_release``, J, and ``loss_share``, % of ΔU;
+0 without friction): the figures of ``shot_summary.FIGURES``, whose ``shot_figures`` takes
+them from here when asked for an output step.
 
 A design the model refuses raises the :class:`~trebuchet.errors.TrebuchetInputError` that
 ``simulate`` raises (the numba kernel words it, as ``simulate`` does); without a C compiler
@@ -31,30 +32,12 @@ __all__ = ["SUMMARY_KEYS", "EXTREMA", "CLEARANCE_WINDOW", "shot_summary", "summa
 #: s past the release over which ``cw_clearance`` is taken (a dry fire: the whole swing).
 CLEARANCE_WINDOW = 0.5
 
-#: The keys of :func:`shot_summary`, with their units: ``sweep.SUMMARY_COLUMNS``, then the
-#: counterweight's clearance and the friction's loss at release.
-SUMMARY_KEYS: dict[str, str] = {
-    "lift_off": "s, lift-off of the projectile from the trough",
-    "release_time": "s, release after the trigger",
-    "release_speed": "m/s, projectile speed at release",
-    "release_angle": "rad, projectile velocity above horizontal at release",
-    "release_angle_deg": "°, the same in degrees (as the scene file's _deg keys)",
-    "release_height": "m, projectile height at release",
-    "range": "m, range from the pivot (the scene's flight: vacuum or drag)",
-    "F_S_peak": "N, peak |F_S| (sling on projectile)",
-    "F_H_peak": "N, peak |F_H| (beam on counterweight at the hinge)",
-    "F_R_peak": "N, peak |F_R| (bearing reaction at the pivot)",
-    "F_R_perp_peak": "N, peak |F_R_perp| (reaction across the beam: bending)",
-    "torque_peak": "N m, peak |torque| on the beam about the pivot",
-    "sling_tension_min": "N, least sling tension while held (negative: slack, model invalid)",
-    "energy_share": "1, projectile's mechanical energy at release over ΔU",
-    "energy_drift_rel": "1, max |E_m + E_M + E_beam (+ losses)| over ΔU (solver accuracy)",
-    "cw_clearance": "m, lowest height of the counterweight's centre above the ground, "
-                    f"trigger to {CLEARANCE_WINDOW:g} s past the release",
-    "loss_at_release": "J, energy the bearings' friction has taken by the release",
-    "loss_share": "1, loss_at_release over ΔU",
-}
-
+#: The keys of :func:`shot_summary`, in order: the figures of
+#: ``shot_summary.FIGURES`` (their units there), the sweep's ``SUMMARY_COLUMNS``.
+SUMMARY_KEYS = ("lift_off", "release_time", "release_speed", "release_angle",
+                "release_angle_deg", "release_height", "range", "F_S_peak", "F_H_peak",
+                "F_R_peak", "F_R_perp_peak", "torque_peak", "sling_tension_min", "energy_share",
+                "energy_drift_rel", "cw_clearance", "E_loss_release", "loss_share")
 
 #: The keys of :func:`shot_summary` that are extrema of the rows, with a time.
 EXTREMA = ("F_S_peak", "F_H_peak", "F_R_peak", "F_R_perp_peak", "torque_peak",
@@ -120,8 +103,8 @@ def summary_and_times(scene: Scene, *, rtol: float | str = "default", dt: float 
         "energy_share": fig["E_m_release"] / delta_u,
         "energy_drift_rel": fig["energy_drift"] / delta_u,
         "cw_clearance": fig["cw_clearance"],
-        "loss_at_release": fig["loss_at_release"],
-        "loss_share": fig["loss_at_release"] / delta_u,
+        "E_loss_release": fig["loss_at_release"],
+        "loss_share": 100.0 * fig["loss_at_release"] / delta_u,
     }, {k: when[k] for k in EXTREMA}
 
 

@@ -390,8 +390,12 @@ def _state_at(ts, Y, Hs, Fs, t, y):  # noqa: ANN001, ANN202
 
 @numba.njit(cache=True)
 def _columns(kind, e, g, H, ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
-    """Rows θ, ψ, φ, θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈ of ``out`` at times ``t`` (φ NaN in phase 3)."""
+    """Rows θ, ψ, φ, θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈ of ``out`` at times ``t`` (φ NaN in phase 3); where
+    ``out`` has more rows, the states after the phase's angles and rates (the lost energies
+    of friction) follow."""
     y = np.empty(Y.shape[1])
+    extra = out.shape[0] - 9
+    first = y.shape[0] - extra
     for m in range(t.shape[0]):
         _state_at(ts, Y, Hs, Fs, t[m], y)
         th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = dyn.phase_state(kind, y, e, g, H,
@@ -399,6 +403,8 @@ def _columns(kind, e, g, H, ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
         out[0, m], out[1, m], out[2, m] = th, ps, ph
         out[3, m], out[4, m], out[5, m] = th_d, ps_d, ph_d
         out[6, m], out[7, m], out[8, m] = th_dd, ps_dd, ph_dd
+        for j in range(extra):
+            out[9 + j, m] = y[first + j]
 
 
 @numba.njit(cache=True)
@@ -517,7 +523,8 @@ class KernelSolution:
 
     def columns(self, t: np.ndarray, out: np.ndarray) -> None:
         """Angles, rates and accelerations (rows θ, ψ, φ, θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈; rad, rad/s,
-        rad/s²) at times ``t`` (s) into ``out`` (9 × len(t))."""
+        rad/s²) at times ``t`` (s) into ``out`` (9 × len(t); with more rows, the states after
+        the angles and rates follow: the lost energies of friction)."""
         if self.t_steps.size == 0:  # a phase of zero length: the one state it holds
             ts, Y = np.array([self.t_end, self.t_end + 1.0]), self.y_end[None, :]
             coef, h = np.zeros((1, _NP, self.y_end.size)), np.ones(1)

@@ -41,6 +41,8 @@ MAX_SHOT = 60.0  # s: a shot still in the trough or sling by then is refused
 #: Angles, rates and accelerations, in the row order of :meth:`Trajectory.angle_columns`.
 STATE_COLUMNS = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "psi_dd",
                  "phi_dd")
+#: The energies lost to friction, integrated with the motion where the engine has friction.
+LOST_COLUMNS = ("E_loss_pivot", "E_loss_hinge")
 
 
 @dataclass(frozen=True)
@@ -90,28 +92,15 @@ class Trajectory:
         lost at pivot and hinge (in units of :func:`dynamics.energy_scale`)."""
         return has_friction(self.scene.engine)
 
-    def lost_energies(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``E_loss_pivot``, ``E_loss_hinge`` (J, since the trigger) at times ``t`` (s), from the
-        integrated states (zero without friction)."""
-        t = np.asarray(t, dtype=float)
-        out = np.zeros((2, t.size))
-        if self.friction:
-            which = np.minimum(np.searchsorted([p.t1 for p in self.phases], t, side="left"),
-                               len(self.phases) - 1)
-            for k, p in enumerate(self.phases):
-                sel = np.flatnonzero(which == k)
-                if sel.size:
-                    out[:, sel] = np.asarray(p.sol(t[sel])).reshape(-1, sel.size)[-2:]
-            out *= dyn.energy_scale(self.scene.engine, self.scene.g)
-        return out[0], out[1]
-
     def angles(self, t: np.ndarray) -> pd.DataFrame:
         """Angles, rates and accelerations at times ``t`` (s). At an event time the row takes
         the phase that ends there (left limit); ``t = 0`` is 0+ (the shot has started)."""
         return frame(self.angle_columns(t))
 
-    def angle_columns(self, t: np.ndarray) -> dict[str, np.ndarray]:
-        """:meth:`angles` as a dict of columns ``t, phase, theta … phi_dd``."""
+    def angle_columns(self, t: np.ndarray, lost: bool = False) -> dict[str, np.ndarray]:
+        """:meth:`angles` as a dict of columns ``t, phase, theta … phi_dd``; with ``lost`` and
+        an engine with friction, ``E_loss_pivot`` and ``E_loss_hinge`` (J, since the trigger,
+        from the integrated states) too."""
         t = np.asarray(t, dtype=float)
         if t.ndim != 1:
             raise ValueError("t_eval must be one-dimensional")
@@ -120,7 +109,8 @@ class Trajectory:
                                       "simulated shot); ask for a longer phase III with "
                                       "after_release=")
         n = t.size
-        block = np.full((len(STATE_COLUMNS), n), np.nan)
+        names = STATE_COLUMNS + (LOST_COLUMNS if lost and self.friction else ())
+        block = np.full((len(names), n), np.nan)
         phase = np.zeros(n, dtype=np.int64)
         # phase k takes (t1 of phase k-1, t1 of phase k]; the first also t <= its t1
         which = np.minimum(np.searchsorted([p.t1 for p in self.phases], t, side="left"),
@@ -132,17 +122,22 @@ class Trajectory:
             if sel[-1] - sel[0] + 1 == sel.size:  # sorted times: a slice, no gather
                 sel = slice(int(sel[0]), int(sel[-1]) + 1)
             phase[sel] = p.phase
-            block[:, sel] = self._phase_columns(p, t[sel])
-        return {"t": t, "phase": phase, **dict(zip(STATE_COLUMNS, block, strict=True))}
+            block[:, sel] = self._phase_columns(p, t[sel], len(names))
+        if len(names) > len(STATE_COLUMNS):
+            block[len(STATE_COLUMNS):] *= dyn.energy_scale(self.scene.engine, self.scene.g)
+        return {"t": t, "phase": phase, **dict(zip(names, block, strict=True))}
 
-    def _phase_columns(self, p: PhaseSolution, t: np.ndarray) -> np.ndarray:
-        """Rows of :data:`STATE_COLUMNS` of one phase at times ``t`` inside it."""
+    def _phase_columns(self, p: PhaseSolution, t: np.ndarray, rows: int) -> np.ndarray:
+        """The first ``rows`` of :data:`STATE_COLUMNS` and the lost energies' states of one
+        phase at times ``t`` inside it."""
         if hasattr(p.sol, "columns"):  # the compiled integrator evaluates them itself
-            out = np.empty((len(STATE_COLUMNS), t.size))
+            out = np.empty((rows, t.size))
             p.sol.columns(t, out)
             return out
         e, g, H = self.scene.engine, self.scene.g, self.scene.start.H
-        return np.array(dyn.phase_state(p.phase, p.sol(t), e, g, H))
+        y = p.sol(t)
+        extra = [y[-k] for k in range(rows - len(STATE_COLUMNS), 0, -1)]
+        return np.array([*dyn.phase_state(p.phase, y, e, g, H), *extra])
 
 
 def _rhs(scene: Scene, kind: int, lib: ModuleType = math) -> Callable:
@@ -458,9 +453,9 @@ def simulate(scene: Scene | str | Path,
     times = default_times(traj, dt) if times is None else times
     table = None if traj.shot is None else traj.shot.table(times)  # the C: every column
     if table is None:
-        cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
-        if traj.friction:
-            cols["E_loss_pivot"], cols["E_loss_hinge"] = traj.lost_energies(times)
+        angles = traj.angle_columns(times, lost=True)
+        lost = {name: angles.pop(name) for name in LOST_COLUMNS if name in angles}
+        cols = load_columns(angles, scene, release_state=traj.release_state, lost=lost or None)
     else:
         cols = table.columns
     if table is None or not table.finite:

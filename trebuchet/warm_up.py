@@ -3,9 +3,9 @@
 ``make install`` runs ``python -m trebuchet.warm_up``: a shot of the paper's engine with all
 its outputs in the generated C (:mod:`trebuchet.model.c_engine`: sympy and gcc, ~20 s when
 fresh; without a compiler one line says so and the numba kernel simulates), the same shot with
-the numba kernels (the fallback, the ones that word a refused shot, and the load columns of
-measured logs: ~20 s when fresh) and the smoothing of a short synthetic log (the Kalman
-filter's kernel, ~2 s).
+the numba kernels (the fallback, the ones that word a refused shot, the load columns of
+measured logs and the sweep's peak search: ~30 s when fresh) and the smoothing of a short
+synthetic log (the Kalman filter's kernel, ~2 s).
 """
 
 from __future__ import annotations
@@ -21,11 +21,13 @@ def warm_up_model() -> None:
     """Simulate the paper's shot with every output, and evaluate each phase's dense output."""
     from trebuchet.model.paper import horsdal_scene_path
     from trebuchet.model.scene import Scene
+    from trebuchet.model.shot_summary import shot_figures
     from trebuchet.model.simulate import integrate, simulate
 
     scene = Scene.from_toml(horsdal_scene_path())
     simulate(scene)  # builds the C engine
     simulate(scene, method="numba-DOP853")
+    shot_figures(scene)  # the sweep's and the optimiser's peak search
     for p in integrate(scene, method="numba-DOP853").phases:
         p.sol(np.array([p.t0, p.t1]))
 

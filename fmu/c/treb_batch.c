@@ -108,6 +108,30 @@ int treb_engine_states(TrebShot *s, int k, const double *t, long n, double *out,
     return 0;
 }
 
+/* The steps stored for the phase of index k. */
+long treb_engine_step_count(const TrebShot *s, int k)
+{
+    int last = s->n_phases - 1;
+    return (k == last ? s->steps.n : s->first[k + 1]) - s->first[k];
+}
+
+/* Those steps: start times T, sizes H, start states Y (count x n, C order) and the dense
+ * output's coefficients F (count x 7 x n), n the phase's state size. */
+void treb_engine_steps(const TrebShot *s, int k, double *T, double *H, double *Y, double *F)
+{
+    long count = treb_engine_step_count(s, k);
+    int n = treb_state_size(&s->sc, s->phase[k]);
+    for (long j = 0; j < count; j++) {
+        const TrebStep *st = &s->steps.data[s->first[k] + j];
+        T[j] = st->t;
+        H[j] = st->h;
+        for (int i = 0; i < n; i++) {
+            Y[j * n + i] = st->y[i];
+            for (int p = 0; p < TREB_NP; p++) F[(j * TREB_NP + p) * n + i] = st->F[p][i];
+        }
+    }
+}
+
 /* Every row column (TREB_ROW_*) of the state y of phase kind into row. */
 static void row_of(const TrebScene *sc, int kind, const double *y, double *row)
 {

@@ -34,6 +34,8 @@ int treb_engine_start(TrebShot *s, const double *q, const int *flags, const doub
                       char *msg);
 void treb_engine_info(const TrebShot *s, double *info);
 int treb_engine_states(TrebShot *s, int k, const double *t, long n, double *out, char *msg);
+long treb_engine_step_count(const TrebShot *s, int k);
+void treb_engine_steps(const TrebShot *s, int k, double *T, double *H, double *Y, double *F);
 int treb_engine_rows(TrebShot *s, const double *t, long n, const long *dest, long dest_t,
                      double *out, long *phase, long *bad, char *msg);
 int treb_engine_summary(TrebShot *s, double dt, double t_clear, double *out, long *bad,
