@@ -30,7 +30,7 @@ Units: SI (s, rad, rad/s, rad/s², N, N m, W, J, m, m/s).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,7 +45,7 @@ from trebuchet.errors import (
     check_choice,
     warn_at_caller,
 )
-from trebuchet.ingest.advisory import resolution_advisories
+from trebuchet.ingest.advisory import ADVISED, resolution_advisories
 from trebuchet.ingest.calibrated_angles import calibrated_log, widened_by_calibration
 from trebuchet.ingest.events.lift_off import (
     lift_off_sd,
@@ -61,7 +61,7 @@ from trebuchet.ingest.events.release_model import (
     scene_doubt,
 )
 from trebuchet.ingest.events.release_sources import TrackEndRelease, release_at_track_end
-from trebuchet.ingest.events.sling_continuation import continued_sling
+from trebuchet.ingest.events.sling_continuation import continued_sling, release_horizon
 from trebuchet.ingest.events.stone_flight import points_stone_release
 from trebuchet.ingest.geometry.user_calibration import read_calibration
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
@@ -82,10 +82,10 @@ from trebuchet.ingest.smoothing.smooth import (
     validated_log,
 )
 from trebuchet.ingest.systematic_angles import systematic_angles, with_systematic_angles
-from trebuchet.ingest.uncertainty import propagate
+from trebuchet.ingest.uncertainty import chunk_rows, propagate
 from trebuchet.ingest.user_calibrated import posed_log
 from trebuchet.model import dynamics as dyn
-from trebuchet.model.loads import loads
+from trebuchet.model.loads import load_columns
 from trebuchet.model.scene import Scene, as_scene
 
 __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_phases",
@@ -96,7 +96,8 @@ STATE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES]
 DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
 #: preset -> (smoother settings, uncertainty propagation order); see ReconstructOptions.
 PRESETS: dict[str, tuple[SmoothSettings, int]] = {
-    "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0), local_noise=False), 1),
+    "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0), band_variance="posterior",
+                            bias_iterations=1), 1),
     "default": (SmoothSettings(), 2),
     "precise": (SmoothSettings(local_window=1.5), 2),
 }
@@ -155,10 +156,20 @@ class ReconstructOptions:
 
     ``preset`` trades time for accuracy (``bench/ingest_trade.py`` measures it):
 
-    - ``"fast"``: coarse noise search (grid step 1 decade of ``q/r²``), one process noise
-      for the whole log (``SmoothSettings.local_noise = False``), first-order uncertainty
+    - ``"fast"``: the default's estimates from a coarser noise search (grid step 1
+      decade of ``q/r²``) and plainer bands: the smoother's posterior ``P`` instead of
+      its calibrated process-noise share (``SmoothSettings.band_variance="posterior"``:
+      no simulated draws), one term of the bias instead of two, first-order uncertainty
       propagation (forward differences: 9 load evaluations instead of 18, no
-      second-order variance or bias term);
+      second-order variance or bias term). Measured (``bench/ingest_accuracy.py``'s 160
+      cells, seeds 0–5, projected form): mean |F_R| RMS error 1.63 % against 1.62 %,
+      the three target cells 0.60 / 1.14 / 2.13 % (default 0.60 / 1.17 / 2.16 %), bands
+      inside 85–99 % in 148 cells (4 too narrow, 8 too wide) against 160; smoothing and
+      loads 0.036 s a log against 0.093 s, ``reconstruct`` of the 2 s log at 1000 fps
+      about 0.5× the default's (``bench/reconstruct_speed.py``). Until this note it had
+      one process noise for the whole log (``local_noise=False``) and the default's
+      bands: 137 / 0 / 23 cells, 2.12 % (its single ``q`` widened the bands where the
+      motion is slow), and it was slower than the default on that log;
     - ``"default"``: grid step ½ decade, the process noise shaped frame by frame by the
       jerk of a first smoothing over a window of 2 time constants (local-linear; at the
       end of the sling's track at least the angles' common shape), the smoothing bias in
@@ -249,11 +260,12 @@ def shot_phases(t: np.ndarray, scene: Scene, trigger: float | None, lift_off: fl
 
 
 def _evaluate(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
-              trough: str) -> pd.DataFrame:
-    """``loads`` on ``state`` with rest rows (phase 0) as the scene's first phase at zero
-    rates and accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ
-    in the trough."""
-    cols = {c: state[c].to_numpy(dtype=float) for c in state.columns}
+              trough: str) -> dict[str, np.ndarray]:
+    """The columns of ``loads`` (pandas-free: :func:`~trebuchet.model.loads.load_columns`)
+    on ``state`` with rest rows (phase 0) as the scene's first phase at zero rates and
+    accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ in the
+    trough."""
+    cols = {c: np.asarray(state[c], dtype=float) for c in state.columns}
     rest = phase == 0
     first = scene.phases[0]
     run_phase = np.where(rest, first, phase)
@@ -274,13 +286,24 @@ def _evaluate(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
                 values[sel] = v
                 cols[col] = values
     cols["phase"] = run_phase
-    frame = pd.DataFrame(cols, index=state.index, copy=False)
     try:
-        out = loads(frame, scene, form=form)
+        out = load_columns(cols, scene, form=form)
     except ValueError as exc:  # phase-3 rows without a sling row before them
         raise TrebuchetInputError(f"reconstruct: {exc}") from None
     out["phase"] = phase
     return out
+
+
+def _flight_carry(phase: np.ndarray) -> Callable[[int, int], list[int]]:
+    """``carry`` of a chunked propagation: rows in flight (phase 3) need the last row in the
+    sling (the flight starts from its state) in their chunk."""
+    held = np.flatnonzero(phase != 3)
+    last = int(held[-1]) if held.size else -1
+
+    def carry(lo: int, hi: int) -> list[int]:
+        return [last] if 0 <= last < lo and bool(np.any(phase[lo:hi] == 3)) else []
+
+    return carry
 
 
 def _state(est: pd.DataFrame) -> pd.DataFrame:
@@ -318,12 +341,12 @@ def _event_variance(t: np.ndarray, event: float | None, sd: float,
         return var
     i_before = int(np.flatnonzero(~after)[-1])
     i_after = int(np.flatnonzero(after)[0])
-    near = np.abs(t - event) < 6.0 * sd
-    p_after = ndtr((t - event) / sd)
-    p_other = np.where(after, 1.0 - p_after, p_after)
-    other = np.where(after[:, None], values[i_before][None, :], values[i_after][None, :])
-    diff = np.nan_to_num(other - values)
-    var[near] = p_other[near, None] * diff[near] ** 2
+    near = np.flatnonzero(np.abs(t - event) < 6.0 * sd)  # only these rows: no (n, m) temporaries
+    p_after = ndtr((t[near] - event) / sd)
+    p_other = np.where(after[near], 1.0 - p_after, p_after)
+    other = np.where(after[near, None], values[i_before][None, :], values[i_after][None, :])
+    diff = np.nan_to_num(other - values[near])
+    var[near] = p_other[:, None] * diff ** 2
     return var
 
 
@@ -340,7 +363,7 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     t = state["t"].to_numpy()
     trial = shot_phases(t, scene, trigger, None, None)
     trial[trial == 3] = 1
-    fn = _evaluate(state, trial, scene, options.form, options.trough)["F_N"].to_numpy()
+    fn = _evaluate(state, trial, scene, options.form, options.trough)["F_N"]
     when = lift_off_time(t, fn, trigger, release)
     if when is None:
         return None, float("nan")
@@ -357,7 +380,7 @@ def _detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Sce
     if np.isfinite(offset) and offset != 0.0:  # the angles' common offset moves F_N's zero
         shifted = state.assign(theta=state["theta"].to_numpy() - offset)
         fn_shifted = _evaluate(shifted, trial, scene, options.form, options.trough)["F_N"]
-        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted.to_numpy(), trigger,
+        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted, trigger,
                                                         release))
     return when, sd
 
@@ -435,11 +458,29 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         sources["lift_off"] = f"no trough (projectile {scene.projectile!r})"
     phase = shot_phases(t, scene, trigger, lift, release)
 
-    prop = propagate(lambda s: _evaluate(s, phase, scene, options.form, options.trough),
-                     state, cov, order=propagation_order(options))
-    ev_var = (_event_variance(t, trigger, event_sd["trigger"], prop.value)
-              + _event_variance(t, release, event_sd["release"], prop.value))
-    sd = np.sqrt(prop.sd ** 2 + ev_var)
+    prop = propagate(lambda s: _evaluate(s, phase[np.asarray(s.index)], scene, options.form,
+                                         options.trough),
+                     state, cov, order=propagation_order(options), chunk=chunk_rows(len(state)),
+                     carry=_flight_carry(phase), order_names=list(ADVISED), columns=True)
+    ev_var = _event_variance(t, trigger, event_sd["trigger"], prop.value)
+    ev_var += _event_variance(t, release, event_sd["release"], prop.value)
+    sd = prop.sd  # √(sd² + the events' variance), in place (a 60 s log: 20 MB an array)
+    np.sqrt(np.add(np.square(sd, out=sd), ev_var, out=sd), out=sd)
+
+    notes = list(fit.notes)
+    if trigger is None:
+        notes.append("no rest found at the start: t_shot counts from the first frame")
+    moving = phase > 0
+    noise = fit.noise
+    noise_deg = float(np.degrees(np.median([v["r_sd"] for v in noise.values()]))) \
+        if noise else float("nan")
+    col = {c: j for j, c in enumerate(prop.names)}
+    advice = resolution_advisories(
+        t, moving, {c: prop.value[:, j] for c, j in col.items()},
+        {c: sd[:, j] for c, j in col.items()}, {c: prop.orders(c) for c in prop.order_names},
+        {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
+        options.resolution_fraction, lines=lines)
+    del ev_var
 
     t_shot = t - (trigger if trigger is not None else t[0])
     out: dict[str, np.ndarray] = {"t": t, "t_shot": t_shot, "phase": phase}
@@ -452,20 +493,7 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
     for j, c in enumerate(prop.names):
         out[c + "_sd"] = sd[:, j]
     result = pd.DataFrame(out, index=est.index)
-
-    notes = list(fit.notes)
-    if trigger is None:
-        notes.append("no rest found at the start: t_shot counts from the first frame")
-    moving = phase > 0
-    noise = fit.noise
-    noise_deg = float(np.degrees(np.median([v["r_sd"] for v in noise.values()]))) \
-        if noise else float("nan")
-    col = {c: j for j, c in enumerate(prop.names)}
-    advice = resolution_advisories(
-        t, moving, {c: prop.value[:, j] for c, j in col.items()},
-        {c: sd[:, j] for c, j in col.items()}, {c: prop.by_order[:, :, j] for c, j in col.items()},
-        {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
-        options.resolution_fraction, lines=lines)
+    del out, prop, sd
     validity = geometry_findings(t, phase, result["theta"].to_numpy(), result["psi"].to_numpy(),
                                  result["phi"].to_numpy(), scene,
                                  tension=result["sling_tension"].to_numpy(),
@@ -560,17 +588,19 @@ def _model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
 def _with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
                           until: float | None = None) -> pd.DataFrame:
     """``est`` with φ, φ̇, φ̈ and their sd (and the smoothing's ``cov["phi"]``) filled on the rows
-    after the sling track's last row ``last`` (up to the time ``until``, s; all rows if
-    None) by the sling's pendulum driven by the smoothed beam
-    (:mod:`.events.sling_continuation`)."""
-    cont = continued_sling({c: est[c].to_numpy(dtype=float) for c in
-                            ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")},
-                           scene, last, smoothing_of(est).cov["phi"][last][:3, :3])
-    keep = np.ones(cont.rows.size, bool) if until is None else (
-        est["t"].to_numpy(dtype=float)[cont.rows] <= until)
-    return with_angle_rows(est, "phi", cont.rows[keep],
-                           (cont.phi[keep], cont.phi_d[keep], cont.phi_dd[keep]),
-                           cont.cov[keep])
+    after the sling track's last row ``last`` (up to the time ``until``, s; if None as far
+    as the release check needs, :func:`.events.sling_continuation.release_horizon`, and
+    φ, φ̇, φ̈ without their sd: the check does not use it) by the sling's pendulum driven
+    by the smoothed beam (:mod:`.events.sling_continuation`)."""
+    cols = {c: est[c].to_numpy(dtype=float) for c in
+            ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")}
+    check = until is None  # for the release check: φ and φ̇ only (its sd NaN)
+    if check:
+        until = release_horizon(cols["t"], cols["theta_d"], last,
+                                smoothing_of(est).events.get("trigger"))
+    cont = continued_sling(cols, scene, last, smoothing_of(est).cov["phi"][last][:3, :3],
+                           until=until, spread=not check)
+    return with_angle_rows(est, "phi", cont.rows, (cont.phi, cont.phi_d, cont.phi_dd), cont.cov)
 
 
 def _lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFrame,

@@ -23,7 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from trebuchet.model import c_engine
 from trebuchet.model import kinematics as kin
+from trebuchet.model.c_summary import summary_and_times
 from trebuchet.model.flight import flight_summary
 from trebuchet.model.forces import projectile_energy, rest_energies
 from trebuchet.model.loads import load_columns
@@ -150,6 +152,9 @@ def shot_figures(scene: Scene, *, rtol: float | str = "default",
     Raises TrebuchetInputError where :func:`simulate` would (a design the model refuses).
     """
     rtol = resolve_rtol(rtol)
+    if dt is not None and c_engine.available(quiet=True):  # the table's rows, reduced in C
+        figures, times = summary_and_times(scene, rtol=rtol, dt=dt, after_release=after_release)
+        return ShotFigures(**figures, times=times)
     dry = scene.projectile == "none"
     after = after_release if after_release is not None else (
         DEFAULT_DRY_FIRE if dry else DEFAULT_AFTER_RELEASE)
@@ -166,7 +171,8 @@ def shot_figures(scene: Scene, *, rtol: float | str = "default",
         flight = flight_summary(rs, g, scene.flight, e.m)
         em_release = projectile_energy((rs["vx"], rs["vy"]), rs["y"], e, g)
     em_release -= rest[0]
-    if dt is None and all(isinstance(p.sol, KernelSolution) for p in traj.phases):
+    if dt is None and all(isinstance(p.sol, KernelSolution | c_engine.CPhase)
+                          for p in traj.phases):  # the steps, of the numba kernel or the C
         values, times = reduce_phases(list(traj.phases), jit_engine(e), g, scene.start.H, rest,
                                       em_release, t_hi, t_clear)
         extrema = {name: (float(v), float(t)) for name, v, t in zip(EXTREMA, values, times,

@@ -22,11 +22,12 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.model import c_engine
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
 from trebuchet.model.flight import flight_summary
-from trebuchet.model.frames import frame
+from trebuchet.model.frames import block_frame, frame
 from trebuchet.model.friction import has_friction
 from trebuchet.model.loads import load_columns
 from trebuchet.model.output_size import MAX_ROWS, check_output_size
@@ -66,6 +67,7 @@ class Trajectory:
     release_state: dict[str, float] | None
     rtol: float
     method: str
+    shot: Any = None  # the C engine's shot (c_engine.CShot) where it integrated
 
     @property
     def t_end(self) -> float:
@@ -74,6 +76,15 @@ class Trajectory:
     @property
     def nfev(self) -> int:
         return sum(p.nfev for p in self.phases)
+
+    @property
+    def engine(self) -> str:
+        """What integrated the shot: ``"c"``, ``"numba"``, ``"python"`` or ``"scipy"``."""
+        if self.shot is not None:
+            return "c"
+        if self.method in ("DOP853", "c-DOP853", "numba-DOP853"):
+            return "numba"
+        return "python" if self.method == "python-DOP853" else "scipy"
 
     @property
     def friction(self) -> bool:
@@ -157,10 +168,11 @@ def _event(scene: Scene, kind: int, par: float) -> Callable:
     return fun
 
 
-#: Integrators of :func:`simulate`'s ``method``: DOP853 compiled (default), the same method in
-#: pure Python, or any ``solve_ivp`` method prefixed ``scipy-`` (a bare scipy name also works).
-METHODS = ("DOP853", "python-DOP853", "scipy-DOP853", "scipy-RK45", "scipy-Radau",
-           "scipy-LSODA", "scipy-BDF", "scipy-RK23")
+#: Integrators of :func:`simulate`'s ``method``: DOP853 in the generated C (default; the numba
+#: kernel where no C compiler is), in C or numba by name, in pure Python, or any ``solve_ivp``
+#: method prefixed ``scipy-`` (a bare scipy name also works).
+METHODS = ("DOP853", "c-DOP853", "numba-DOP853", "python-DOP853", "scipy-DOP853", "scipy-RK45",
+           "scipy-Radau", "scipy-LSODA", "scipy-BDF", "scipy-RK23")
 
 
 def _solve(scene: Scene, kind: int, t0: float, t1: float, y0: Sequence[float],
@@ -177,7 +189,7 @@ def _solve(scene: Scene, kind: int, t0: float, t1: float, y0: Sequence[float],
     catch it on a first step (energy errors of 1e-7 of ΔU were seen)."""
     if first_step is not None:
         first_step = min(first_step, t1 - t0)
-    if method == "DOP853":
+    if method in ("DOP853", "c-DOP853", "numba-DOP853"):  # where the C did not run: numba
         from trebuchet.model.shot_kernel import solve_phase
 
         return solve_phase(kind, scene.engine, scene.g, scene.start.H, t0, t1,
@@ -221,6 +233,9 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     if after_release is None:
         after_release = DEFAULT_DRY_FIRE if scene.projectile == "none" else DEFAULT_AFTER_RELEASE
     check_output_size(after_release=after_release)
+    if method in ("DOP853", "c-DOP853") and (traj := _integrate_c(scene, rtol, after_release,
+                                                                 method)):
+        return traj
     e, g, H, s = scene.engine, scene.g, scene.start.H, scene.start
     phases: list[PhaseSolution] = []
     events: dict[str, float] = {}
@@ -252,6 +267,24 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     events["end"] = t_end
     return Trajectory(scene=scene, phases=tuple(phases), events=events,
                       release_state=release_state, rtol=rtol, method=method)
+
+
+def _integrate_c(scene: Scene, rtol: float, after_release: float,
+                 method: str) -> Trajectory | None:
+    """The shot by the generated C (:mod:`~trebuchet.model.c_engine`); None where it cannot run
+    here (``"DOP853"``: the numba kernel runs) or refuses the shot (the numba kernel words it)."""
+    if method == "c-DOP853":
+        c_engine.require(method)
+    elif not c_engine.available():
+        return None
+    shot = c_engine.CShot.start(scene, rtol, after_release)
+    if shot is None:
+        return None
+    n = len(shot.kinds) - (after_release == 0.0 and len(shot.kinds) > 1)  # no phase III
+    phases = tuple(PhaseSolution(shot.kinds[k], shot.t0[k], shot.t1[k], c_engine.CPhase(shot, k),
+                                 shot.nfev[k]) for k in range(n))
+    return Trajectory(scene, phases, {**shot.events, "end": phases[-1].t1}, shot.release_state,
+                      rtol, method, shot)
 
 
 def _phase_trough(scene: Scene, beam: list[float], lost: list[float], rtol: float, method: str,
@@ -388,10 +421,13 @@ def simulate(scene: Scene | str | Path,
         :data:`ACCURACY`: ``"fast"`` (1e-6), ``"default"`` (1e-10: energy conserved to 1e-9 of
         ΔU), ``"precise"`` (1e-12). ``make bench`` measures what each costs and buys.
     method : str
-        ``"DOP853"`` (default): Dormand–Prince 8(5,3), compiled with numba (the first call after
-        installing compiles for ~20 s; ``make install`` does it). ``"python-DOP853"``: the same
-        steps in pure Python (~3× slower). ``"scipy-<name>"`` or a bare ``solve_ivp`` method
-        name (``"RK45"``, ``"Radau"``, …): ``scipy.integrate.solve_ivp``.
+        ``"DOP853"`` (default): Dormand–Prince 8(5,3) in the C that ``trebuchet fmu build``
+        generates from the model's formulas, run in process (:mod:`trebuchet.model.c_engine`;
+        built at install, ``make install``); where no C compiler is, the same method compiled
+        with numba. ``"c-DOP853"``, ``"numba-DOP853"``: one of those by name (the same steps,
+        equal to rounding). ``"python-DOP853"``: the same steps in pure Python.
+        ``"scipy-<name>"`` or a bare ``solve_ivp`` method name (``"RK45"``, ``"Radau"``, …):
+        ``scipy.integrate.solve_ivp``.
     after_release : float, optional
         Seconds of phase III (beam and counterweight after release) to simulate; default 0.5 s,
         or 1.5 s for a dry fire (which is phase III from the start).
@@ -415,19 +451,25 @@ def simulate(scene: Scene | str | Path,
     if times is None:
         check_output_size(dt, span=traj.t_end)
     times = default_times(traj, dt) if times is None else times
-    angles = traj.angle_columns(times, lost=True)
-    lost = {name: angles.pop(name) for name in LOST_COLUMNS if name in angles}
-    cols = load_columns(angles, scene, release_state=traj.release_state, lost=lost or None)
-    _refuse_non_finite(cols, scene)
+    table = None if traj.shot is None else traj.shot.table(times)  # the C: every column
+    if table is None:
+        angles = traj.angle_columns(times, lost=True)
+        lost = {name: angles.pop(name) for name in LOST_COLUMNS if name in angles}
+        cols = load_columns(angles, scene, release_state=traj.release_state, lost=lost or None)
+    else:
+        cols = table.columns
+    if table is None or not table.finite:
+        _refuse_non_finite(cols, scene)
     drift = float(np.max(np.abs(engine_energy(cols, traj)))) if times.size else 0.0
     delta_u = scene.delta_U
     slack = slack_intervals(cols)
-    run = frame(cols)
+    run = frame(cols) if table is None else block_frame(table.names, table.block,
+                                                        {1: table.phase})
     run.attrs["events"] = dict(traj.events)
     run.attrs["flight"] = (None if traj.release_state is None else flight_summary(
         traj.release_state, scene.g, scene.flight, scene.engine.m))
     run.attrs["diagnostics"] = {
-        "method": method, "rtol": rtol, "nfev": traj.nfev,
+        "method": method, "engine": traj.engine, "rtol": rtol, "nfev": traj.nfev,
         "energy_drift": drift, "energy_drift_rel": drift / delta_u, "delta_U": delta_u,
         "slack": slack, "advice": _advice(scene, traj),
     }

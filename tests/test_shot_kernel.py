@@ -25,7 +25,7 @@ def test_compiled_and_python_dop853_take_the_same_steps(request, name):
     """Same tableau, error norm, step control and event location: the step starts, the events
     and the dense output agree to rounding (the backyard engine releases by velocity angle)."""
     scene = request.getfixturevalue(name)
-    fast = integrate(scene)
+    fast = integrate(scene, method="numba-DOP853")
     slow = integrate(scene, method="python-DOP853")
     assert set(fast.events) == set(slow.events)
     for k, t in slow.events.items():
@@ -45,7 +45,7 @@ def test_compiled_and_python_dop853_take_the_same_steps(request, name):
 
 def test_kernel_accelerations_are_the_dynamics_module_formulas(horsdal):
     """The compiled columns equal the numpy evaluation of dynamics.py on the same states."""
-    traj = integrate(horsdal)
+    traj = integrate(horsdal, method="numba-DOP853")
     for p in traj.phases:
         t = np.linspace(p.t0, p.t1, 50)[1:]
         out = np.empty((9, t.size))
@@ -80,7 +80,7 @@ def test_fixed_counterweight_runs_compiled():
     from tests.test_variants import FIXED, scene_with
 
     scene = scene_with(**FIXED)
-    fast = integrate(scene)
+    fast = integrate(scene, method="numba-DOP853")
     slow = integrate(scene, method="python-DOP853")
     for k, t in slow.events.items():
         assert fast.events[k] == pytest.approx(t, abs=1e-12), k

@@ -36,18 +36,19 @@ import json
 import math
 import re
 import tomllib
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.model.scene import Engine
+from trebuchet.ingest.readers.table import DECIMAL
+from trebuchet.user_files import read_user_file
 
-from .camera import apply_homography, homography_from_points, rotation_from_angles
+from .camera import apply_homography, homography_from_points
+from .camera_files import camera_yaml, opencv_xml
+from .plane_pose import PlanePose, plane_from_engine, rectified
 
 __all__ = ["Lens", "UserCalibration", "read_calibration", "undistort_opencv",
            "RESIDUAL_WARN_PX", "PlanePose", "plane_from_engine", "rectified"]
@@ -59,6 +60,10 @@ RESIDUAL_WARN_PX = 2.0
 #: OpenCV's distortion coefficients in their order; more (thin prism, tilted sensor) are
 #: not modelled and refused.
 OPENCV_COEFFICIENTS = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
+#: Bytes of a calibration file (a camera file or a list of points is a few kB).
+MAX_CALIBRATION_BYTES = 1 << 20
+#: Largest magnitude of any number of a calibration file (px, m, lens coefficients).
+MAX_MAGNITUDE = 1e9
 #: Length units of the plane points' header, in m.
 PLANE_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 
@@ -169,12 +174,15 @@ def read_calibration(path: str | Path) -> UserCalibration:
     file, the key or row, and what is wrong, for anything else."""
     p = Path(path)
     try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise TrebuchetInputError(f"calibration file {p}: cannot be read ({exc.strerror})"
-                                  ) from None
+        raw = read_user_file(p, "calibration file", MAX_CALIBRATION_BYTES)
+    except TrebuchetInputError as exc:
+        problem = "cannot be read (no such file)" if exc.message == "no such file" else (
+            exc.message)
+        raise TrebuchetInputError(f"calibration file {p}: {problem}") from None
     try:
         text = raw.decode("utf-8-sig")
+        if "\x00" in text:
+            raise UnicodeDecodeError("utf-8", raw, 0, 1, "NUL")
     except UnicodeDecodeError:
         raise TrebuchetInputError(f"calibration file {p.name}: not a text file (a camera "
                                   "file is YAML, XML or JSON; known points CSV or TOML)"
@@ -183,6 +191,9 @@ def read_calibration(path: str | Path) -> UserCalibration:
         cal = _parse(text, str(p))
     except TrebuchetInputError as exc:
         raise exc.in_file(p.name) from None
+    except RecursionError:
+        raise TrebuchetInputError(f"{p.name}: nested more deeply than any calibration file "
+                                  "is (lists or tables within each other)") from None
     return cal
 
 
@@ -190,25 +201,27 @@ def _parse(text: str, source: str) -> UserCalibration:
     """Decide the layout from the content and read it."""
     head = text.lstrip()
     if head.startswith("<"):
-        return _from_mapping(_opencv_xml(text), source, "OpenCV FileStorage XML")
+        return _from_mapping(opencv_xml(text), source, "OpenCV FileStorage XML")
     if head.startswith("{"):
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise TrebuchetInputError.at(f"line {exc.lineno}", f"not valid JSON ({exc.msg})"
                                          ) from None
+        except ValueError as exc:  # an integer of more than 4300 digits
+            raise TrebuchetInputError(f"not valid JSON ({exc})") from None
         return _from_mapping(data, source, "JSON")
     if head.startswith("%YAML") or "!!opencv-matrix" in text:
-        return _from_mapping(_yaml(text), source, "OpenCV FileStorage YAML")
+        return _from_mapping(camera_yaml(text), source, "OpenCV FileStorage YAML")
     if re.search(r"^\s*\[\[\s*point\s*\]\]", text, re.MULTILINE) or re.search(
             r"^\s*camera_matrix\s*=", text, re.MULTILINE):
         try:
             data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
+        except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
             raise TrebuchetInputError(f"not valid TOML ({exc})") from None
         return _from_mapping(data, source, "TOML")
     if re.search(r"^\s*(camera_matrix|cam\d+|intrinsics)\s*:", text, re.MULTILINE):
-        data = _yaml(text)
+        data = camera_yaml(text)
         layout = "Kalibr camchain YAML" if _kalibr_camera(data) else "ROS camera_info YAML"
         return _from_mapping(data, source, layout)
     first = next((ln for ln in text.splitlines() if ln.strip()), "")
@@ -248,6 +261,9 @@ def _with_points(source: str, layout: str, plane: np.ndarray, image_rows_down: n
     image = image_rows_down * [1.0, -1.0]
     flat = lens.undistort(image) if lens is not None else image
     Hm = homography_from_points(plane, flat)
+    if not np.isfinite(Hm).all() or np.linalg.cond(Hm) > 1e12:
+        raise TrebuchetInputError("the image points do not fix a homography (three or more "
+                                  "on one line in the picture, or the same point twice?)")
     n = plane.shape[0]
     residual = None
     if n >= 5:
@@ -258,16 +274,31 @@ def _with_points(source: str, layout: str, plane: np.ndarray, image_rows_down: n
 
 
 def _number(value: object, key: str) -> float:
-    """A finite number, else an error naming ``key``."""
+    """A finite number of at most :data:`MAX_MAGNITUDE`, else an error naming ``key``; text
+    is a number only in ASCII decimals (as CSV tools read it)."""
     if isinstance(value, bool) or not isinstance(value, int | float | str):
-        raise TrebuchetInputError(f"key {key}: {value!r} is not a number")
+        raise TrebuchetInputError(f"key {key}: {_shown(value)} is not a number")
+    if isinstance(value, str) and not DECIMAL.fullmatch(value.strip()):
+        raise TrebuchetInputError(f"key {key}: {_shown(value)} is not a number")
     try:
         x = float(value)
-    except ValueError:
-        raise TrebuchetInputError(f"key {key}: {value!r} is not a number") from None
+    except (ValueError, OverflowError):
+        raise TrebuchetInputError(f"key {key}: {_shown(value)} is not a finite number"
+                                  ) from None
     if not math.isfinite(x):
-        raise TrebuchetInputError(f"key {key}: {value!r} is not a finite number")
+        raise TrebuchetInputError(f"key {key}: {_shown(value)} is not a finite number")
+    if abs(x) > MAX_MAGNITUDE:
+        raise TrebuchetInputError(f"key {key}: {x:.4g} is beyond {MAX_MAGNITUDE:.0e}, which no "
+                                  "pixel, length or lens coefficient reaches")
     return x
+
+
+def _shown(value: object) -> str:
+    """A value for a message: its repr, cut to 40 characters."""
+    if isinstance(value, list | tuple | Mapping):
+        return f"a {type(value).__name__} of {len(value)}"
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _numbers(value: object, key: str) -> np.ndarray:
@@ -286,8 +317,12 @@ def _numbers(value: object, key: str) -> np.ndarray:
     if isinstance(value, list | tuple):
         flat: list[float] = []
         for v in value:
-            flat.extend(_numbers(v, key).tolist() if isinstance(v, list | tuple)
-                        else [_number(v, key)])
+            if isinstance(v, list | tuple):  # a matrix's rows; deeper is no camera file's
+                if any(isinstance(w, list | tuple | Mapping) for w in v):
+                    raise TrebuchetInputError(f"key {key}: lists nested more than two deep")
+                flat.extend(_number(w, key) for w in v)
+            else:
+                flat.append(_number(v, key))
         return np.array(flat, dtype=float)
     return np.array([_number(value, key)])
 
@@ -399,8 +434,11 @@ def _enough(plane: np.ndarray, image: np.ndarray) -> tuple[np.ndarray, np.ndarra
 def _points_csv(text: str, source: str) -> UserCalibration:
     """A CSV of known points: columns ``u``, ``v`` (px) and ``x``, ``y`` (m, or the unit
     in the header: cm, mm); other columns (a name) ignored; ``,`` or ``;`` or tab."""
-    dialect = csv.Sniffer().sniff(text.splitlines()[0], delimiters=",;\t")
-    rows = list(csv.reader(io.StringIO(text), dialect))
+    try:
+        dialect = csv.Sniffer().sniff(text.splitlines()[0], delimiters=",;\t")
+        rows = list(csv.reader(io.StringIO(text), dialect))
+    except csv.Error as exc:
+        raise TrebuchetInputError(f"not a table of known points ({exc})") from None
     numbered = [(i, r) for i, r in enumerate(rows, 1) if any(c.strip() for c in r)]
     header_line, header = numbered[0]
     index, scale = {}, {}
@@ -425,185 +463,14 @@ def _points_csv(text: str, source: str) -> UserCalibration:
         vals = []
         for k in "uvxy":
             cell = row[index[k]].strip() if index[k] < len(row) else ""
+            text_cell = cell.replace(",", ".") if dialect.delimiter != "," else cell
             try:
-                v = float(cell.replace(",", ".")) if dialect.delimiter != "," else float(cell)
-            except ValueError:
+                v = _number(text_cell, k)
+            except TrebuchetInputError as exc:
                 raise TrebuchetInputError.at(f"line {line}, column {k}",
-                                             f"{cell!r} is not a number") from None
-            if not math.isfinite(v):
-                raise TrebuchetInputError.at(f"line {line}, column {k}", f"{cell!r} is not "
-                                             "a finite number")
+                                             exc.message.split(": ", 1)[-1]) from None
             vals.append(v * scale[k])
         image.append(vals[:2])
         plane.append(vals[2:])
     plane_a, image_a = _enough(np.array(plane).reshape(-1, 2), np.array(image).reshape(-1, 2))
     return _with_points(source, "CSV", plane_a, image_a, None)
-
-
-# ------------------------------------------------------------------ YAML and XML
-
-def _opencv_xml(text: str) -> dict:
-    """OpenCV's FileStorage XML: ``<opencv_storage>`` with ``<key type_id="opencv-matrix">``
-    (rows, cols, dt, data) and scalar keys."""
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise TrebuchetInputError(f"not valid XML ({exc})") from None
-    out: dict = {}
-    for child in root:
-        if child.get("type_id") == "opencv-matrix" or child.find("data") is not None:
-            cells = {c.tag: (c.text or "").strip() for c in child}
-            out[child.tag] = {"rows": cells.get("rows"), "cols": cells.get("cols"),
-                              "data": cells.get("data", "").split()}
-        else:
-            out[child.tag] = (child.text or "").strip().strip('"')
-    return out
-
-
-def _yaml(text: str) -> dict:
-    """The block YAML of camera files (OpenCV FileStorage, ROS camera_info, Kalibr): nested
-    maps by indentation, ``key: value`` scalars, flow lists ``[…]`` (over several lines),
-    tags (``!!opencv-matrix``) and ``%``/``---`` lines ignored. Not a general YAML parser."""
-    lines = []
-    for raw in text.splitlines():
-        line = raw.split(" #")[0].rstrip() if not raw.lstrip().startswith("#") else ""
-        if not line.strip() or line.startswith(("%", "---", "...")):
-            continue
-        lines.append(line)
-    joined: list[str] = []  # flow lists spread over several lines, joined
-    for line in lines:
-        if joined and joined[-1].count("[") > joined[-1].count("]"):
-            joined[-1] += " " + line.strip()
-        else:
-            joined.append(line)
-    root: dict = {}
-    stack: list[tuple[int, dict]] = [(-1, root)]
-    for line in joined:
-        indent = len(line) - len(line.lstrip())
-        key, sep, value = line.strip().partition(":")
-        if not sep or key.startswith("-"):
-            continue  # a list item or stray line: not in camera files
-        while stack[-1][0] >= indent:
-            stack.pop()
-        value = re.sub(r"^!!\S+", "", value.strip()).strip()
-        if value == "":
-            child: dict = {}
-            stack[-1][1][key.strip()] = child
-            stack.append((indent, child))
-        elif value.startswith("["):
-            stack[-1][1][key.strip()] = [v.strip().strip("'\"") for v in
-                                         value.strip("[] ").split(",") if v.strip()]
-        else:
-            stack[-1][1][key.strip()] = value.strip("'\"")
-    return root
-
-
-# ------------------------------------------------------------------ the plane from the engine
-
-#: The engine's ties whose lengths the rectified image must keep: (point, point, length).
-TIES = (("pivot", "spigot", "L1"), ("pivot", "hinge", "L2"), ("hinge", "counterweight", "L3"),
-        ("spigot", "projectile", "L4"))
-#: Soft-L1 scale of the ties' relative misfit (a tie 0.3 % off counts fully; tracker
-#: outliers beyond it less and less).
-TIE_SCALE = 3e-3
-#: Starting pitches and yaws (rad) of the fit (the best of the nine is kept).
-POSE_STARTS = (-0.2, 0.0, 0.2)
-
-
-@dataclass(frozen=True)
-class PlanePose:
-    """Where the engine's plane stands before a camera of known lens: the virtual turn of
-    the camera that faces it, ``pitch`` and ``yaw`` (rad), the ``roll`` (rad) that then makes
-    the counterweight hang plumb at rest, ``scale`` (rectified units per m: px per m / focal),
-    ``focal`` (px) and principal point ``centre`` (px, y up) of the lens-free pixels, and
-    ``misfit`` (rms relative misfit of the engine's ties, dimensionless); ``plumb_frames``
-    the rest frames the roll came from (0: the roll is not fixed)."""
-
-    pitch: float
-    yaw: float
-    roll: float
-    scale: float
-    focal: float
-    centre: tuple[float, float]
-    misfit: float
-    plumb_frames: int
-
-    def to_plane(self, xy_up: np.ndarray) -> np.ndarray:
-        """Lens-free pixels (…, 2, y up) to the engine's plane (m, y up, origin at the
-        principal point's ray)."""
-        q = rectified(xy_up, self.focal, self.centre, self.pitch, self.yaw) / self.scale
-        c, s = np.cos(-self.roll), np.sin(-self.roll)
-        return np.stack([c * q[..., 0] - s * q[..., 1], s * q[..., 0] + c * q[..., 1]], -1)
-
-
-def rectified(xy_up: np.ndarray, focal: float, centre: tuple[float, float], pitch: float,
-              yaw: float) -> np.ndarray:
-    """Lens-free pixels (…, 2, y up) as a camera turned by ``pitch`` and ``yaw`` (rad, about
-    its own x and y axes, :func:`.camera.rotation_from_angles` without roll) would see them:
-    the ray ``((u − c)/f, 1)`` turned, then divided by its depth (dimensionless)."""
-    R = rotation_from_angles(pitch, yaw, 0.0) @ np.diag([1.0, -1.0, -1.0])  # R_x R_y
-    xy = (np.asarray(xy_up, dtype=float) - np.asarray(centre)) / focal
-    ray = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1) @ R.T
-    return ray[..., :2] / ray[..., 2:3]
-
-
-def _tie_misfits(tracks: Mapping[str, np.ndarray], in_sling: np.ndarray, engine: Engine,
-                 focal: float, centre: tuple[float, float], x: np.ndarray) -> np.ndarray:
-    """Relative misfits of every tie (its rectified length over its length in m, over the
-    scale, minus 1) and the beam's bend (sine of the angle between pivot − hinge and
-    spigot − pivot), all frames, NaN left out."""
-    pitch, yaw, scale = x
-    q = {k: rectified(v, focal, centre, pitch, yaw) for k, v in tracks.items()}
-    out = []
-    for a, b, length in TIES:
-        if a in q and b in q:
-            d = np.hypot(*(q[b] - q[a]).T) / (getattr(engine, length) * scale) - 1.0
-            out.append(d[in_sling] if b == "projectile" else d)
-    if {"pivot", "spigot", "hinge"} <= set(q):
-        u, w = q["spigot"] - q["pivot"], q["pivot"] - q["hinge"]
-        out.append((u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
-                   / (np.hypot(*u.T) * np.hypot(*w.T)))
-    r = np.concatenate(out)
-    return r[np.isfinite(r)]
-
-
-def plane_from_engine(tracks: Mapping[str, np.ndarray], lens: Lens, engine: Engine,
-                      in_sling: np.ndarray, at_rest: np.ndarray) -> PlanePose:
-    """The plane's pose before a camera of known ``lens`` from the engine's own geometry.
-
-    ``tracks`` {role: (n, 2)} lens-free px, y up (:meth:`Lens.undistort`); ``in_sling`` (n,)
-    the frames whose projectile hangs L4 from the spigot; ``at_rest`` (n,) frames before the
-    shot. With the focal length known, a turn of the camera (pitch, yaw) that faces the
-    plane leaves a similar image of it: the fit (soft-L1 least squares from nine starts)
-    finds the turn and the scale that keep the engine's ties at their lengths (L1 pivot to
-    spigot, L2 pivot to hinge, L3 hinge to counterweight, L4 spigot to projectile in the
-    sling) and its beam straight. The roll then makes the counterweight hang plumb at rest
-    (ψ = −90°; not for a rigid counterweight, ``plumb_frames`` 0)."""
-    K = lens.matrix
-    focal, centre = lens.focal, (float(K[0, 2]), float(-K[1, 2]))
-    if not {"pivot", "spigot"} <= set(tracks):
-        raise TrebuchetInputError("the plane's pose from the engine needs the pivot and the "
-                                  f"spigot tracked; points: {sorted(tracks)}")
-    q0 = rectified(tracks["spigot"], focal, centre, 0.0, 0.0) - rectified(
-        tracks["pivot"], focal, centre, 0.0, 0.0)
-    s0 = float(np.nanmedian(np.hypot(*q0.T))) / engine.L1
-    best = None
-    for p0 in POSE_STARTS:
-        for y0 in POSE_STARTS:
-            sol = least_squares(lambda x: _tie_misfits(tracks, in_sling, engine, focal, centre,
-                                                       x), [p0, y0, s0], loss="soft_l1",
-                                f_scale=TIE_SCALE, x_scale=[0.1, 0.1, s0])
-            if best is None or sol.cost < best.cost:
-                best = sol
-    pitch, yaw, scale = (float(v) for v in best.x)
-    misfit = float(np.sqrt(np.mean(best.fun ** 2)))
-    roll, plumb = 0.0, 0
-    if engine.counterweight_offset is None and {"hinge", "counterweight"} <= set(tracks):
-        q = {k: rectified(tracks[k], focal, centre, pitch, yaw) for k in ("hinge",
-                                                                        "counterweight")}
-        d = q["counterweight"] - q["hinge"]
-        hang = np.arctan2(d[:, 1], d[:, 0])[at_rest]
-        hang = hang[np.isfinite(hang)]
-        if hang.size:
-            roll, plumb = float(np.median(hang)) + np.pi / 2, int(hang.size)
-    return PlanePose(pitch, yaw, roll, scale, focal, centre, misfit, plumb)
