@@ -393,7 +393,7 @@ class CShot:
 class CPhase:
     """The phase of index ``k`` of a :class:`CShot` as a phase's solution of ``simulate``'s
     ``Trajectory``: callable at times (s) for the integrated state, :meth:`columns`, and its
-    steps as ``shot_kernel.KernelSolution`` holds them (``kind``, ``t_steps``, ``h``,
+    steps as ``kernel_phase.KernelSolution`` holds them (``kind``, ``t_steps``, ``h``,
     ``y_steps``, ``coef``, ``y_end``: the design's peak search reduces them)."""
 
     def __init__(self, shot: CShot, k: int) -> None:

@@ -28,9 +28,10 @@ from trebuchet.model import kinematics as kin
 from trebuchet.model.c_summary import summary_and_times
 from trebuchet.model.flight import flight_summary
 from trebuchet.model.forces import projectile_energy, rest_energies
+from trebuchet.model.kernel_phase import KernelSolution
 from trebuchet.model.loads import load_columns
 from trebuchet.model.scene import Scene
-from trebuchet.model.shot_kernel import KernelSolution, jit_engine
+from trebuchet.model.shot_kernel import jit_engine
 from trebuchet.model.simulate import (
     DEFAULT_AFTER_RELEASE,
     DEFAULT_DRY_FIRE,

@@ -30,9 +30,10 @@ from trebuchet.model.flight import flight_summary
 from trebuchet.model.frames import block_frame, frame
 from trebuchet.model.friction import has_friction
 from trebuchet.model.loads import load_columns
-from trebuchet.model.output_size import MAX_ROWS, check_output_size
+from trebuchet.model.output_size import check_output_size
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.settings import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL
+from trebuchet.model.shot_checks import checked_times, refuse_non_finite, slack_intervals
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
@@ -190,7 +191,7 @@ def _solve(scene: Scene, kind: int, t0: float, t1: float, y0: Sequence[float],
     if first_step is not None:
         first_step = min(first_step, t1 - t0)
     if method in ("DOP853", "c-DOP853", "numba-DOP853"):  # where the C did not run: numba
-        from trebuchet.model.shot_kernel import solve_phase
+        from trebuchet.model.kernel_phase import solve_phase
 
         return solve_phase(kind, scene.engine, scene.g, scene.start.H, t0, t1,
                            np.asarray(y0, dtype=float), rtol, first_step, tuple(events))
@@ -444,7 +445,7 @@ def simulate(scene: Scene | str | Path,
     """
     scene = as_scene(scene, "simulate")
     rtol = resolve_rtol(rtol)
-    times = None if t_eval is None else _checked_times(t_eval)
+    times = None if t_eval is None else checked_times(t_eval)
     if times is None:
         check_output_size(dt, after_release)
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
@@ -459,7 +460,7 @@ def simulate(scene: Scene | str | Path,
     else:
         cols = table.columns
     if table is None or not table.finite:
-        _refuse_non_finite(cols, scene)
+        refuse_non_finite(cols, scene)
     drift = float(np.max(np.abs(engine_energy(cols, traj)))) if times.size else 0.0
     delta_u = scene.delta_U
     slack = slack_intervals(cols)
@@ -480,34 +481,6 @@ def simulate(scene: Scene | str | Path,
     return run
 
 
-def _checked_times(t_eval: Sequence[float] | np.ndarray) -> np.ndarray:
-    """``t_eval`` as a one-dimensional array of finite floats (s), or a refusal saying why."""
-    try:
-        t = np.asarray(t_eval, dtype=float)
-    except (TypeError, ValueError):
-        raise TrebuchetInputError("t_eval must hold numbers (s after the trigger)") from None
-    if t.ndim != 1:
-        raise TrebuchetInputError(f"t_eval must be one-dimensional, got shape {t.shape}")
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size:
-        raise TrebuchetInputError(f"t_eval[{bad[0]}] = {t[bad[0]]}: times must be finite "
-                                  f"({bad.size} are not)")
-    if t.size > MAX_ROWS:
-        raise TrebuchetInputError(f"t_eval holds {t.size:,} times: at most {MAX_ROWS:,} output "
-                                  "rows in one run")
-    return t
-
-
-def slack_intervals(run: Mapping[str, Any]) -> list[tuple[float, float]]:
-    """Intervals (s) where the sling holding the projectile would have to push
-    (``sling_tension < 0``): the rigid-sling model is not valid there. ``run``: the loads, a
-    DataFrame or a dict of columns."""
-    slack = (np.asarray(run["phase"]) <= 2) & (np.asarray(run["sling_tension"]) < 0.0)
-    t = np.asarray(run["t"])
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], slack.astype(np.int8), [0]])))
-    return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
 def _advice(scene: Scene, traj: Trajectory) -> list[str]:
     """What the user can do about a costly or stiff scene."""
     advice = []
@@ -518,35 +491,3 @@ def _advice(scene: Scene, traj: Trajectory) -> list[str]:
             "if it barely swings, model it fixed to the beam ([engine] counterweight = "
             "\"fixed\"), or use method=\"Radau\"")
     return advice
-
-
-# Columns that are undefined by design: the sling after release, the projectile of a dry fire.
-_UNDEFINED_AFTER_RELEASE = ("phi", "phi_d", "phi_dd")
-_UNDEFINED_DRY_FIRE = ("x_m", "y_m", "vx_m", "vy_m")
-
-
-def _refuse_non_finite(cols: Mapping[str, np.ndarray], scene: Scene) -> None:
-    """Output holds no NaN or infinity except where a quantity does not exist (the sling's
-    angle after release, the projectile of a dry fire); anything else is refused."""
-    phase3 = cols["phase"] == 3
-    dry = scene.engine.m == 0.0
-    skip = _UNDEFINED_AFTER_RELEASE + (_UNDEFINED_DRY_FIRE if dry else ())
-    total = np.zeros(phase3.shape)  # NaN and ±inf survive a sum: one pass over the columns
-    for name, v in cols.items():
-        if v.dtype.kind == "f" and name not in skip:
-            total += v
-    for name in _UNDEFINED_AFTER_RELEASE:
-        total += np.where(phase3, 0.0, cols[name])
-    if np.isfinite(total).all():
-        return
-    for name, v in cols.items():
-        if v.dtype.kind != "f" or (dry and name in _UNDEFINED_DRY_FIRE):
-            continue
-        bad = ~np.isfinite(v)
-        if name in _UNDEFINED_AFTER_RELEASE:
-            bad &= ~phase3
-        if bad.any():
-            t_bad = float(cols["t"][np.flatnonzero(bad)[0]])
-            raise TrebuchetInputError(
-                f"{scene.source}: the model breaks down at t = {t_bad:.4g} s ({name} is not "
-                "finite); the scene is outside what the equations of motion can describe")

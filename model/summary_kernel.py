@@ -34,7 +34,8 @@ from trebuchet.model import (
     loads_kernel,  # noqa: F401 - registers row_loads for numba
     shot_kernel,
 )
-from trebuchet.model.shot_kernel import _interp, discard_stale_cache
+from trebuchet.model.numba_cache import discard_stale_cache
+from trebuchet.model.shot_kernel import _interp
 
 __all__ = ["EXTREMA", "reduce_phases", "SAMPLES_PER_STEP", "GOLDEN_STEPS", "PARABOLA_STEPS",
            "CANDIDATE_SHARE"]
@@ -244,8 +245,8 @@ def reduce_phases(phases: list, engine: tuple, g: float, H: float,
                   rest: tuple[float, float, float], em_release: float, t_hi: float,
                   t_clear: float) -> tuple[np.ndarray, np.ndarray]:
     """The :data:`EXTREMA` of a shot and their times (s) over ``[0, t_hi]`` (the clearance over
-    ``[0, t_clear]``), from its phases as solved by :func:`shot_kernel.solve_phase` (each a
-    :class:`~trebuchet.model.shot_kernel.KernelSolution` with ``kind``, the steps and the
+    ``[0, t_clear]``), from its phases as solved by :func:`kernel_phase.solve_phase` (each a
+    :class:`~trebuchet.model.kernel_phase.KernelSolution` with ``kind``, the steps and the
     phase's start ``t0`` and end ``t1``, as :class:`~trebuchet.model.simulate.PhaseSolution`
     holds them). ``engine``: the :data:`~trebuchet.model.shot_kernel.JitEngine`; ``rest``: the
     rest energies (J); ``em_release``: the projectile's energy at release over rest (J), which

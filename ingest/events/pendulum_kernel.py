@@ -24,7 +24,7 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from trebuchet.ingest.kalman.kernel import compiled
 from trebuchet.model import dynamics as dyn
-from trebuchet.model.shot_kernel import discard_stale_cache
+from trebuchet.model.numba_cache import discard_stale_cache
 
 __all__ = ["integrate", "TABLEAU", "Lengths", "KINDS"]
 
@@ -51,7 +51,7 @@ class Lengths(NamedTuple):
 
 # the model's own formulas compiled by numba (their source, not a copy), not cached on their
 # own: they are compiled into the cached functions below, whose cache is emptied when
-# model/dynamics.py changes (:func:`~trebuchet.model.shot_kernel.discard_stale_cache`)
+# model/dynamics.py changes (:func:`~trebuchet.model.numba_cache.discard_stale_cache`)
 _sling_dd = numba.njit(error_model="numpy")(dyn.sling_pendulum_phi_dd)
 _counterweight_dd = numba.njit(error_model="numpy")(dyn.counterweight_pendulum_psi_dd)
 
