@@ -9,7 +9,8 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 
-# The simulator and the smoother are compiled once (numba, about 20 s) and cached beside their sources.
+# The simulator's C engine (generated from the model's formulas, gcc) and the numba kernels are
+# compiled once (about 40 s) and cached beside their sources; a changed source rebuilds them.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e .
 	$(BIN)/python -m trebuchet.warm_up

@@ -3,12 +3,14 @@
 Times, over ``REPEATS`` runs after a warm-up, interleaved so that the load of the machine falls
 on all alike:
 
-* ``simulate``: :func:`trebuchet.model.simulate.simulate` at its defaults (DOP853 compiled with
-  numba, rtol 1e-10, atol 1e-12, outputs every 1 ms plus the events, every force of the
-  contract);
+* ``simulate``: :func:`trebuchet.model.simulate.simulate` at its defaults (DOP853 in the C
+  generated from the model's formulas, run in process, rtol 1e-10, atol 1e-12, outputs every
+  1 ms plus the events, every force of the contract), and with the numba kernels
+  (``method="numba-DOP853"``, the default before; the fallback where no C compiler is);
 * ``integrate``: the integration alone (:func:`trebuchet.model.simulate.integrate`);
-* ``load columns``: every load on the shot's 1500 output rows from its angles
-  (:func:`trebuchet.model.loads.load_columns`, compiled :func:`~trebuchet.model.forces.row_loads`);
+* ``load columns``: every load on the shot's 1500 output rows from its angles with the numba
+  kernel (:func:`trebuchet.model.loads.load_columns`, compiled
+  :func:`~trebuchet.model.forces.row_loads`: the path of measured logs);
 * ``simulate, back to back``: ``simulate`` called ``repeats`` times in a row, as a sweep does
   (the interleaved lines above run each call after the others, with colder caches);
 * ``simulate (python-DOP853)``: the same steps taken by the pure-Python DOP853 of
@@ -243,8 +245,10 @@ def run(out_dir: str | Path | None = None, repeats: int = REPEATS) -> pd.DataFra
     traj = integrate(scene)
     angles = traj.angle_columns(default_times(traj))
     cases = {
-        "simulate (default: compiled DOP853)": lambda: simulate(scene),
-        "integrate only (compiled DOP853)": lambda: integrate(scene),
+        "simulate (default: the generated C)": lambda: simulate(scene),
+        "integrate only (the generated C)": lambda: integrate(scene),
+        "simulate with method='numba-DOP853' (the numba kernels)": lambda: simulate(
+            scene, method="numba-DOP853"),
         "load columns only (compiled row_loads, 1500 rows)": lambda: load_columns(
             angles, scene, release_state=traj.release_state),
         "simulate with method='python-DOP853' (same steps, pure Python)": lambda: simulate(
@@ -254,8 +258,9 @@ def run(out_dir: str | Path | None = None, repeats: int = REPEATS) -> pd.DataFra
         "plain solve_ivp implementation (baseline)": lambda: plain_shot(scene),
     }
     nfev = {name: integrate(scene, method=method).nfev for name, method in (
-        ("simulate (default: compiled DOP853)", "DOP853"),
-        ("integrate only (compiled DOP853)", "DOP853"),
+        ("simulate (default: the generated C)", "DOP853"),
+        ("integrate only (the generated C)", "DOP853"),
+        ("simulate with method='numba-DOP853' (the numba kernels)", "numba-DOP853"),
         ("simulate with method='python-DOP853' (same steps, pure Python)", "python-DOP853"),
         ("simulate with method='scipy-DOP853' (solve_ivp)", "scipy-DOP853"))}
     for fn in cases.values():
@@ -276,7 +281,7 @@ def run(out_dir: str | Path | None = None, repeats: int = REPEATS) -> pd.DataFra
         t0 = time.perf_counter()
         simulate(scene)
         times[back_to_back].append(1e3 * (time.perf_counter() - t0))
-    nfev[back_to_back] = nfev["simulate (default: compiled DOP853)"]
+    nfev[back_to_back] = nfev["simulate (default: the generated C)"]
     base = float(np.median(times["plain solve_ivp implementation (baseline)"]))
     rows = []
     for name, ts in times.items():

@@ -40,7 +40,8 @@ from trebuchet.model import phase_events as pev
 from trebuchet.model.scene import default_moment_of_inertia
 
 __all__ = ["Formula", "FORMULAS", "PARAMETER_NAMES", "ANGLE_NAMES", "LOAD_OUTPUTS",
-           "generate_c", "generate_header", "engine_namespace", "traced", "sympy_math"]
+           "generate_c", "generate_header", "engine_namespace", "ENGINE_FORMULAS", "ROW_NAMES",
+           "generate_rows_header", "traced", "sympy_math"]
 
 #: The engine's parameters, in the order of the generated functions' ``q`` array: lengths (m),
 #: masses (kg), I (kg m²), the fixed counterweight's offset ψ − θ (rad), g (m/s²), H (m), and
@@ -143,7 +144,10 @@ def _motion(phase: int, x: dict[str, Any], e: Any, g: Any, H: Any, lib: Any,
     return tuple(m)
 
 
-def _outputs(phase: int, friction: bool = False) -> Build:
+def _outputs(phase: int, friction: bool = False,
+             names: tuple[str, ...] | None = None) -> Build:
+    """The FMU's outputs of ``phase`` (φ 0 after release); with ``names``, those columns of
+    :data:`ROW_NAMES` (φ NaN after release, as ``simulate``'s table)."""
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
         th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = _motion(phase, x, e, g, H, lib,
                                                                     friction)[:9]
@@ -153,8 +157,13 @@ def _outputs(phase: int, friction: bool = False) -> Build:
         scale = dyn.energy_scale(e, g)
         cols["E_loss_pivot"] = x["e_P"] * scale if friction else 0.0
         cols["E_loss_hinge"] = x["e_H"] * scale if friction else 0.0
-        return [th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd,
-                *(cols[n] for n in LOAD_OUTPUTS)]
+        angles = [th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd]
+        if names is None:
+            return [*angles, *(cols[n] for n in LOAD_OUTPUTS)]
+        if phase == 3:  # no sling after release: NaN, as in simulate's table
+            angles[2] = angles[5] = angles[8] = lib.nan
+        cols.update(zip(ANGLE_NAMES, angles, strict=True))
+        return [cols[n] for n in names]
     return build
 
 
@@ -250,7 +259,7 @@ def _pieces(phase: int) -> Build:
         th, ps, ph, th_d, ps_d, ph_d = (y[0], y[1], y[2], y[3], y[4], y[5]) if phase == 2 else (
             y[0], y[1], 0.0, y[2], y[3], 0.0)
         p = dyn.friction_pieces(phase, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
-        return [*p, *dyn.friction_start(p, lib)]
+        return [*p[:len(PIECES)], *dyn.friction_start(p, lib)]
     return build
 
 
@@ -364,6 +373,49 @@ def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formu
 
 FORMULAS: tuple[Formula, ...] = _all_formulas()
 
+#: The rows of the in-process engine: ``simulate``'s columns after ``t`` and ``phase`` (the
+#: angles, φ NaN after release; every column of :func:`forces.row_loads`, direct form; the
+#: energies lost by friction, J, 0 without), then the height of the counterweight's centre
+#: ``y_M`` (m, for the figures of a design; not a column of the table).
+ROW_NAMES = (*ANGLE_NAMES, *frc.ROW_COLUMNS, "E_loss_pivot", "E_loss_hinge", "y_M")
+
+
+def _counterweight_height(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+    return [kin.counterweight_position_xy(lib.cos(x["th"]), lib.sin(x["th"]), lib.cos(x["ps"]),
+                                          lib.sin(x["ps"]), e, H)[1]]
+
+
+def _rows(phase: int, friction: bool) -> Build:
+    outputs = _outputs(phase, friction, ROW_NAMES[:-1])
+
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
+        return [*outputs(e, g, H, x, lib), *_counterweight_height(e, g, H, x, lib)]
+    return build
+
+
+def _engine_formulas() -> tuple[Formula, ...]:
+    """The in-process engine's formulas (``treb_rows.c``; not in the FMU): every row column of
+    each phase, counterweight, friction and dry fire, and the counterweight's height."""
+    out: list[Formula] = []
+    for fixed in (False, True):
+        cw = "fixed" if fixed else "hinged"
+        for friction in (False, True):
+            tail, extra = ("_friction", (*_LOST, *_Q)) if friction else ("", ())
+            for phase, dry in ((1, False), (2, False), (3, False), (3, True)):
+                out.append(Formula(f"rows{phase}_{cw}{'_dry' if dry else ''}{tail}",
+                                   f"phase {phase}{' (dry fire)' if dry else ''}: every column "
+                                   "of simulate's rows (dynamics + forces.row_loads)",
+                                   (*_STATE[phase], *extra, *_REST), ROW_NAMES,
+                                   _rows(phase, friction), fixed, dry=dry,
+                                   friction=friction))
+    out.append(Formula("counterweight_height", "kinematics.counterweight_position_xy: the "
+                       "height of the counterweight's centre (m)", ("th", "ps"), ("y_M",),
+                       _counterweight_height))
+    return tuple(out)
+
+
+ENGINE_FORMULAS: tuple[Formula, ...] = _engine_formulas()
+
 
 def _printer():  # noqa: ANN202 - sympy's printer class
     from sympy.printing.c import C99CodePrinter
@@ -421,10 +473,26 @@ def generate_header() -> str:
     return "\n".join(lines)
 
 
-def generate_c() -> str:
-    """``treb_formulas.c``: every :data:`FORMULAS` entry as C99."""
+def generate_c(formulas: tuple[Formula, ...] = FORMULAS, header: str = "treb_formulas.h") -> str:
+    """``treb_formulas.c``: every :data:`FORMULAS` entry as C99 (or ``formulas`` with their
+    ``header``)."""
     head = ["/* Generated by trebuchet.fmu.codegen from the model's Python (sympy, cse): "
-            "do not edit. */", "#include <math.h>", '#include "treb_formulas.h"',
+            "do not edit. */", "#include <math.h>", f'#include "{header}"',
             "#ifndef M_PI", "#define M_PI 3.14159265358979323846", "#endif",
             "#ifndef NAN", "#define NAN (0.0 / 0.0)", "#endif", ""]
-    return "\n".join(head) + "\n".join(_function_c(f) for f in FORMULAS)
+    return "\n".join(head) + "\n".join(_function_c(f) for f in formulas)
+
+
+def generate_rows_header() -> str:
+    """``treb_rows.h``: the in-process engine's formulas (:data:`ENGINE_FORMULAS`) and the
+    index of each row column (:data:`ROW_NAMES`)."""
+    lines = ["/* Generated by trebuchet.fmu.codegen from the model's Python: do not edit. */",
+             "#ifndef TREB_ROWS_H", "#define TREB_ROWS_H", "",
+             f"#define TREB_N_ROWS {len(ROW_NAMES)}",
+             f'#define TREB_ROW_NAMES "{" ".join(ROW_NAMES)}"',
+             f'#define TREB_PARAMETER_NAMES "{" ".join(PARAMETER_NAMES)}"']
+    lines += [f"#define TREB_ROW_{n} {i}" for i, n in enumerate(ROW_NAMES)]
+    lines += [f"void treb_{f.name}(const double *q, const double *x, double *out);"
+              for f in ENGINE_FORMULAS]
+    lines += ["", "#endif", ""]
+    return "\n".join(lines)

@@ -186,6 +186,22 @@ def _fmt_time(value: float | None, sd: float | None = None) -> str:
     return text
 
 
+def friction_summary(result: pd.DataFrame, release: float | None) -> list[str]:
+    """The heat the bearings' friction made by the release (or the log's end), J with its sd,
+    where the scene has friction (issue 22: losses from a measured log)."""
+    import numpy as np
+
+    if "E_loss_pivot" not in result.columns:
+        return []
+    t = result["t"].to_numpy()
+    i = len(t) - 1 if release is None else max(int(np.searchsorted(t, release, "right")) - 1, 0)
+    parts = [f"{joint} {result[f'E_loss_{joint}'].iloc[i]:.4g} ± "
+             f"{result[f'E_loss_{joint}_sd'].iloc[i]:.2g} J"
+             for joint in ("pivot", "hinge")]
+    when = "the release" if release is not None else "the log's end"
+    return [f"lost to friction by {when}: " + ", ".join(parts)]
+
+
 def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     """The summary the command prints: log, noise per angle, events, repairs, peak loads
     with their sd, advisories, validity findings and notes (e.g. a log without rest, whose
@@ -221,6 +237,7 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
         i = np.flatnonzero(ok)[np.argmax(v[ok])]
         lines.append(f"  {label:7s}{v[i]:11.4g} ± {result[col + '_sd'].to_numpy()[i]:.3g} "
                      f"{unit} at t = {t[i]:.4f} s")
+    lines += friction_summary(result, ev.get("release"))
     for key, title in (("advisories", "resolution advisory"), ("validity", "model validity"),
                        ("notes", "notes")):
         items = getattr(a, key)

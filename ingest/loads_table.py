@@ -13,7 +13,7 @@ geometry findings. Units: SI.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +21,7 @@ import pandas as pd
 from scipy.special import ndtr
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.ingest.advisory import resolution_advisories
+from trebuchet.ingest.advisory import ADVISED, resolution_advisories
 from trebuchet.ingest.events.lift_off import (
     gap_widened_sd,
     lift_off_choice,
@@ -37,9 +37,9 @@ from trebuchet.ingest.reconstruction import Reconstruction
 from trebuchet.ingest.scene_fit import geometry_findings
 from trebuchet.ingest.smoothing.result import smoothing_of
 from trebuchet.ingest.smoothing.smooth import ANGLES, SUFFIXES
-from trebuchet.ingest.uncertainty import propagate
+from trebuchet.ingest.uncertainty import chunk_rows, propagate
 from trebuchet.model import dynamics as dyn
-from trebuchet.model.loads import loads
+from trebuchet.model.loads import load_columns
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
 
@@ -68,11 +68,12 @@ def shot_phases(t: np.ndarray, scene: Scene, trigger: float | None, lift_off: fl
 
 
 def phase_loads(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
-              trough: str) -> pd.DataFrame:
-    """``loads`` on ``state`` with rest rows (phase 0) as the scene's first phase at zero
-    rates and accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ
-    in the trough."""
-    cols = {c: state[c].to_numpy(dtype=float) for c in state.columns}
+              trough: str) -> dict[str, np.ndarray]:
+    """The columns of ``loads`` (pandas-free: :func:`~trebuchet.model.loads.load_columns`)
+    on ``state`` with rest rows (phase 0) as the scene's first phase at zero rates and
+    accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ in the
+    trough."""
+    cols = {c: np.asarray(state[c], dtype=float) for c in state.columns}
     rest = phase == 0
     first = scene.phases[0]
     run_phase = np.where(rest, first, phase)
@@ -93,13 +94,24 @@ def phase_loads(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
                 values[sel] = v
                 cols[col] = values
     cols["phase"] = run_phase
-    frame = pd.DataFrame(cols, index=state.index, copy=False)
     try:
-        out = loads(frame, scene, form=form)
+        out = load_columns(cols, scene, form=form)
     except ValueError as exc:  # phase-3 rows without a sling row before them
         raise TrebuchetInputError(f"reconstruct: {exc}") from None
     out["phase"] = phase
     return out
+
+
+def _flight_carry(phase: np.ndarray) -> Callable[[int, int], list[int]]:
+    """``carry`` of a chunked propagation: rows in flight (phase 3) need the last row in the
+    sling (the flight starts from its state) in their chunk."""
+    held = np.flatnonzero(phase != 3)
+    last = int(held[-1]) if held.size else -1
+
+    def carry(lo: int, hi: int) -> list[int]:
+        return [last] if 0 <= last < lo and bool(np.any(phase[lo:hi] == 3)) else []
+
+    return carry
 
 
 def state_frame(est: pd.DataFrame) -> pd.DataFrame:
@@ -137,13 +149,16 @@ def event_variance(t: np.ndarray, event: float | None, sd: float,
         return var
     i_before = int(np.flatnonzero(~after)[-1])
     i_after = int(np.flatnonzero(after)[0])
-    near = np.abs(t - event) < 6.0 * sd
-    p_after = ndtr((t - event) / sd)
-    p_other = np.where(after, 1.0 - p_after, p_after)
-    other = np.where(after[:, None], values[i_before][None, :], values[i_after][None, :])
-    diff = np.nan_to_num(other - values)
-    var[near] = p_other[near, None] * diff[near] ** 2
+    near = np.flatnonzero(np.abs(t - event) < 6.0 * sd)  # only these rows: no (n, m) temporaries
+    p_after = ndtr((t[near] - event) / sd)
+    p_other = np.where(after[near], 1.0 - p_after, p_after)
+    other = np.where(after[near, None], values[i_before][None, :], values[i_after][None, :])
+    diff = np.nan_to_num(other - values[near])
+    var[near] = p_other[:, None] * diff ** 2
     return var
+
+
+# ----------------------------------------------------------------------------- main
 
 
 def detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
@@ -156,7 +171,7 @@ def detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scen
     t = state["t"].to_numpy()
     trial = shot_phases(t, scene, trigger, None, None)
     trial[trial == 3] = 1
-    fn = phase_loads(state, trial, scene, options.form, options.trough)["F_N"].to_numpy()
+    fn = phase_loads(state, trial, scene, options.form, options.trough)["F_N"]
     when = lift_off_time(t, fn, trigger, release)
     if when is None:
         return None, float("nan")
@@ -173,8 +188,7 @@ def detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scen
     if np.isfinite(offset) and offset != 0.0:  # the angles' common offset moves F_N's zero
         shifted = state.assign(theta=state["theta"].to_numpy() - offset)
         fn_shifted = phase_loads(shifted, trial, scene, options.form, options.trough)["F_N"]
-        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted.to_numpy(), trigger,
-                                                        release))
+        sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted, trigger, release))
     return when, sd
 
 
@@ -260,6 +274,24 @@ def shot_events(est: pd.DataFrame, state: pd.DataFrame, cov: dict[str, np.ndarra
                       notes, warned)
 
 
+def _table(est: pd.DataFrame, state: pd.DataFrame, t: np.ndarray, trigger: float | None,
+           phase: np.ndarray, names: list[str], values: np.ndarray, sd: np.ndarray
+           ) -> pd.DataFrame:
+    """The frame of :func:`loads_from_smoothed`: ``t``, ``t_shot``, ``phase``, the smoothed
+    angles, the loads ``names`` (``values`` (n, m)) and every column's sd."""
+    out: dict[str, np.ndarray] = {"t": t, "t_shot": t - (trigger if trigger is not None
+                                                         else t[0]), "phase": phase}
+    for c in STATE_COLUMNS:  # the smoothed angles (phase-I loads may use φ from θ)
+        out[c] = state[c].to_numpy()
+    for j, c in enumerate(names):
+        out[c] = values[:, j]
+    for c in STATE_COLUMNS:
+        out[c + "_sd"] = est[c + "_sd"].to_numpy(dtype=float)
+    for j, c in enumerate(names):
+        out[c + "_sd"] = sd[:, j]
+    return pd.DataFrame(out, index=est.index)
+
+
 def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                         events: Mapping[str, float | None] | None = None,
                         options: ReconstructOptions | None = None,
@@ -290,34 +322,29 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                      stone_lift, tracked)
     trigger, release = ev.times["trigger"], ev.times["release"]
     phase = shot_phases(t, scene, trigger, ev.times["lift_off"], release)
-    prop = propagate(lambda s: phase_loads(s, phase, scene, options.form, options.trough),
-                     state, cov, order=propagation_order(options))
-    ev_var = (event_variance(t, trigger, ev.sd["trigger"], prop.value)
-              + event_variance(t, release, ev.sd["release"], prop.value))
-    sd = np.sqrt(prop.sd ** 2 + ev_var)
-    out: dict[str, np.ndarray] = {"t": t, "t_shot": t - (trigger if trigger is not None
-                                                         else t[0]), "phase": phase}
-    for c in STATE_COLUMNS:  # the smoothed angles (phase-I loads may use φ from θ)
-        out[c] = state[c].to_numpy()
-    for j, c in enumerate(prop.names):
-        out[c] = prop.value[:, j]
-    for c in STATE_COLUMNS:
-        out[c + "_sd"] = est[c + "_sd"].to_numpy(dtype=float)
-    for j, c in enumerate(prop.names):
-        out[c + "_sd"] = sd[:, j]
-    result = pd.DataFrame(out, index=est.index)
-    notes = list(fit.notes) + list(ev.notes)
-    if trigger is None:
-        notes.append("no rest found at the start: t_shot counts from the first frame")
+    prop = propagate(lambda s: phase_loads(s, phase[np.asarray(s.index)], scene, options.form,
+                                           options.trough),
+                     state, cov, order=propagation_order(options), chunk=chunk_rows(len(state)),
+                     carry=_flight_carry(phase), order_names=list(ADVISED), columns=True)
+    ev_var = event_variance(t, trigger, ev.sd["trigger"], prop.value)
+    ev_var += event_variance(t, release, ev.sd["release"], prop.value)
+    sd = prop.sd  # √(sd² + the events' variance), in place (a 60 s log: 20 MB an array)
+    np.sqrt(np.add(np.square(sd, out=sd), ev_var, out=sd), out=sd)
     fps = 1.0 / float(np.median(np.diff(t)))
     noise_deg = float(np.degrees(np.median([v["r_sd"] for v in fit.noise.values()]))) \
         if fit.noise else float("nan")
     col = {c: j for j, c in enumerate(prop.names)}
     advice = resolution_advisories(
         t, phase > 0, {c: prop.value[:, j] for c, j in col.items()},
-        {c: sd[:, j] for c, j in col.items()}, {c: prop.by_order[:, :, j] for c, j in col.items()},
+        {c: sd[:, j] for c, j in col.items()}, {c: prop.orders(c) for c in prop.order_names},
         {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
         options.resolution_fraction, lines=lines)
+    del ev_var
+    result = _table(est, state, t, trigger, phase, prop.names, prop.value, sd)
+    del prop, sd
+    notes = list(fit.notes) + list(ev.notes)
+    if trigger is None:
+        notes.append("no rest found at the start: t_shot counts from the first frame")
     validity = geometry_findings(t, phase, result["theta"].to_numpy(), result["psi"].to_numpy(),
                                  result["phi"].to_numpy(), scene,
                                  tension=result["sling_tension"].to_numpy(),

@@ -20,7 +20,8 @@ __all__ = ["ReconstructOptions", "PRESETS", "smoother_settings", "propagation_or
 
 #: preset -> (smoother settings, uncertainty propagation order); see ReconstructOptions.
 PRESETS: dict[str, tuple[SmoothSettings, int]] = {
-    "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0), local_noise=False), 1),
+    "fast": (SmoothSettings(noise=NoiseSearch(log10_step=1.0), band_variance="posterior",
+                            bias_iterations=1), 1),
     "default": (SmoothSettings(), 2),
     "precise": (SmoothSettings(local_window=1.5), 2),
 }
@@ -79,10 +80,20 @@ class ReconstructOptions:
 
     ``preset`` trades time for accuracy (``bench/ingest_trade.py`` measures it):
 
-    - ``"fast"``: coarse noise search (grid step 1 decade of ``q/r²``), one process noise
-      for the whole log (``SmoothSettings.local_noise = False``), first-order uncertainty
+    - ``"fast"``: the default's estimates from a coarser noise search (grid step 1
+      decade of ``q/r²``) and plainer bands: the smoother's posterior ``P`` instead of
+      its calibrated process-noise share (``SmoothSettings.band_variance="posterior"``:
+      no simulated draws), one term of the bias instead of two, first-order uncertainty
       propagation (forward differences: 9 load evaluations instead of 18, no
-      second-order variance or bias term);
+      second-order variance or bias term). Measured (``bench/ingest_accuracy.py``'s 160
+      cells, seeds 0–5, projected form): mean |F_R| RMS error 1.63 % against 1.62 %,
+      the three target cells 0.60 / 1.14 / 2.13 % (default 0.60 / 1.17 / 2.16 %), bands
+      inside 85–99 % in 148 cells (4 too narrow, 8 too wide) against 160; smoothing and
+      loads 0.036 s a log against 0.093 s, ``reconstruct`` of the 2 s log at 1000 fps
+      about 0.5× the default's (``bench/reconstruct_speed.py``). Until this note it had
+      one process noise for the whole log (``local_noise=False``) and the default's
+      bands: 137 / 0 / 23 cells, 2.12 % (its single ``q`` widened the bands where the
+      motion is slow), and it was slower than the default on that log;
     - ``"default"``: grid step ½ decade, the process noise shaped frame by frame by the
       jerk of a first smoothing over a window of 2 time constants (local-linear; at the
       end of the sling's track at least the angles' common shape), the smoothing bias in

@@ -40,7 +40,7 @@ from trebuchet.ingest.events.release_sources import (
     release_at_track_end,
     release_without_track_end,
 )
-from trebuchet.ingest.events.sling_continuation import continued_sling
+from trebuchet.ingest.events.sling_continuation import continued_sling, release_horizon
 from trebuchet.ingest.events.stone_flight import points_stone_release
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.reconstruct_options import (
@@ -128,17 +128,19 @@ def model_release(angles_log: np.ndarray, est: pd.DataFrame, scene: Scene,
 def with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
                          until: float | None = None) -> pd.DataFrame:
     """``est`` with φ, φ̇, φ̈ and their sd (and the smoothing's ``cov["phi"]``) filled on the rows
-    after the sling track's last row ``last`` (up to the time ``until``, s; all rows if
-    None) by the sling's pendulum driven by the smoothed beam
-    (:mod:`.events.sling_continuation`)."""
-    cont = continued_sling({c: est[c].to_numpy(dtype=float) for c in
-                            ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")},
-                           scene, last, smoothing_of(est).cov["phi"][last][:3, :3])
-    keep = np.ones(cont.rows.size, bool) if until is None else (
-        est["t"].to_numpy(dtype=float)[cont.rows] <= until)
-    return with_angle_rows(est, "phi", cont.rows[keep],
-                           (cont.phi[keep], cont.phi_d[keep], cont.phi_dd[keep]),
-                           cont.cov[keep])
+    after the sling track's last row ``last`` (up to the time ``until``, s; if None as far
+    as the release check needs, :func:`.events.sling_continuation.release_horizon`, and
+    φ, φ̇, φ̈ without their sd: the check does not use it) by the sling's pendulum driven
+    by the smoothed beam (:mod:`.events.sling_continuation`)."""
+    cols = {c: est[c].to_numpy(dtype=float) for c in
+            ("t", "theta", "theta_d", "theta_dd", "phi", "phi_d")}
+    check = until is None  # for the release check: φ and φ̇ only (its sd NaN)
+    if check:
+        until = release_horizon(cols["t"], cols["theta_d"], last,
+                                smoothing_of(est).events.get("trigger"))
+    cont = continued_sling(cols, scene, last, smoothing_of(est).cov["phi"][last][:3, :3],
+                           until=until, spread=not check)
+    return with_angle_rows(est, "phi", cont.rows, (cont.phi, cont.phi_d, cont.phi_dd), cont.cov)
 
 
 def scene_timing(scene: Scene, trigger: float | None) -> SceneTiming:

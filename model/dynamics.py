@@ -50,6 +50,9 @@ __all__ = [
     "trough_phi_d",
     "trough_phi_dd",
     "phase_accelerations",
+    "couple_response",
+    "trough_inertia",
+    "sling_inertia",
     "friction_forces",
     "friction_pieces",
     "friction_newton_step",
@@ -108,7 +111,7 @@ def beam_and_counterweight(theta: Any, psi: Any, theta_d: Any, psi_d: Any, q_pro
     q = q + e.M * e.L2 * (e.L3 * psi_d * psi_d * s - c * (e.L2 * w2 * s + g * cos_ps)
                           + g * cos_th)
     theta_dd = (q + Q_th + (e.L2 * c / e.L3) * Q_ps) / (i + e.M * e.L2 * e.L2 * s * s)
-    return theta_dd, (counterweight_pendulum_psi_dd(theta, theta_d, theta_dd, psi, e, g, lib)
+    return theta_dd, (_pendulum(e.L2, e.L3, s, c, cos_ps, theta_d, theta_dd, g)
                       + Q_ps / (e.M * e.L3 * e.L3))
 
 
@@ -118,7 +121,28 @@ def counterweight_pendulum_psi_dd(theta: Any, theta_d: Any, theta_dd: Any, psi: 
     ``ψ̈ = (L2 (cos(θ−ψ) θ̈ − sin(θ−ψ) θ̇²) − g cos ψ)/L3`` (rad/s²; the second row of the
     paper's eq. (A.1)), for any motion of the beam and in every phase."""
     s, c = lib.sin(theta - psi), lib.cos(theta - psi)
-    return (e.L2 * (c * theta_dd - s * (theta_d * theta_d)) - g * lib.cos(psi)) / e.L3
+    return _pendulum(e.L2, e.L3, s, c, lib.cos(psi), theta_d, theta_dd, g)
+
+
+def _pendulum(arm: Any, length: Any, s: Any, c: Any, cos_a: Any, theta_d: Any, theta_dd: Any,
+              g: float) -> Any:
+    """A pendulum of ``length`` (m) at angle ``a`` hung from the beam's point ``arm`` (m) from
+    the pivot, toward the counterweight: ``ä = (arm (cos(θ−a) θ̈ − sin(θ−a) θ̇²) − g cos a) /
+    length`` (``s``, ``c``: sin and cos of θ − a). The counterweight's arm (L2, L3) as
+    written; the sling (spigot at −L1 on this side, L4) with ``arm = −L1``."""
+    return (arm * (c * theta_dd - s * (theta_d * theta_d)) - g * cos_a) / length
+
+
+def trough_inertia(f: Any, e: Engine) -> Any:
+    """``m L1² f²``, kg m²: the projectile's share of the beam's inertia in the trough (the
+    paper's eq. (A.1); ``f`` of :func:`trough_f_g`)."""
+    return e.m * e.L1 * e.L1 * f * f
+
+
+def sling_inertia(s: Any, e: Engine) -> Any:
+    """``m L1² sin²(θ−φ)``, kg m²: the projectile's share of the beam's inertia in the sling
+    (``s = sin(θ−φ)``)."""
+    return e.m * e.L1 * e.L1 * s * s
 
 
 def accelerations_phase1(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
@@ -135,8 +159,8 @@ def accelerations_phase1(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engi
     f, gg = trough_f_g(theta, phi, e, lib)
     mL1L1 = e.m * e.L1 * e.L1
     theta_dd, psi_dd = beam_and_counterweight(theta, psi, theta_d, psi_d,
-                                              -mL1L1 * f * gg * theta_d * theta_d, mL1L1 * f * f,
-                                              e, g, lib, Q_th, Q_ps)
+                                              -mL1L1 * f * gg * theta_d * theta_d,
+                                              trough_inertia(f, e), e, g, lib, Q_th, Q_ps)
     phi_dd = trough_phi_dd(theta, phi, theta_d, phi_d, theta_dd, e, lib)
     return phi, phi_d, theta_dd, psi_dd, phi_dd
 
@@ -158,8 +182,8 @@ def accelerations_phase2(theta: Any, psi: Any, phi: Any, theta_d: Any, psi_d: An
     q_p = -e.m * e.L1 * (e.L4 * phi_d * phi_d * s + g * lib.cos(theta)
                          + c * (e.L1 * w2 * s - g * cos_ph))
     theta_dd, psi_dd = beam_and_counterweight(theta, psi, theta_d, psi_d, q_p,
-                                              e.m * e.L1 * e.L1 * s * s, e, g, lib, Q_th, Q_ps)
-    phi_dd = sling_pendulum_phi_dd(theta, theta_d, theta_dd, phi, e, g, lib)
+                                              sling_inertia(s, e), e, g, lib, Q_th, Q_ps)
+    phi_dd = _pendulum(-e.L1, e.L4, s, c, cos_ph, theta_d, theta_dd, g)
     return theta_dd, psi_dd, phi_dd
 
 
@@ -169,7 +193,7 @@ def sling_pendulum_phi_dd(theta: Any, theta_d: Any, theta_dd: Any, phi: Any, e: 
     ``φ̈ = (L1 (sin(θ−φ) θ̇² − cos(θ−φ) θ̈) − g cos φ)/L4`` (rad/s²; the paper's sling
     equation), for any motion of the beam."""
     s, c = lib.sin(theta - phi), lib.cos(theta - phi)
-    return (e.L1 * (s * (theta_d * theta_d) - c * theta_dd) - g * lib.cos(phi)) / e.L4
+    return _pendulum(-e.L1, e.L4, s, c, lib.cos(phi), theta_d, theta_dd, g)
 
 
 def accelerations_phase3(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engine, g: float,
@@ -199,15 +223,26 @@ def phase_accelerations(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: A
     return nan, nan, th_dd, ps_dd, nan
 
 
-def _unit_response(kind: int, th: Any, ps: Any, ph: Any, e: Engine, H: float, lib: ModuleType,
-                   Q_th: float, Q_ps: float) -> tuple[tuple[Any, Any], tuple[Any, Any]]:
-    """F_R and F_H (N) that generalised forces ``Q_th``, ``Q_ps`` (N m) alone cause in the pose
-    ``th, ps, ph``: the engine at rest without gravity, so only the mass matrix answers.
-    Loads are affine in the accelerations and these in Q, so this is their slope."""
+def couple_response(kind: int, th: Any, ps: Any, ph: Any, e: Engine, H: float,
+                    lib: ModuleType = np) -> tuple[Any, Any, Any, Any, Any, Any]:
+    """θ̈, ψ̈, φ̈ (rad/s²) per N m of ``Q_θ``, then per N m of ``Q_ψ``, in the pose ``th, ps,
+    ph`` of phase ``kind`` (φ the trough's in phase I, unused in III): the mass matrix alone,
+    from the equations of :func:`beam_and_counterweight` at rest without gravity; φ follows θ
+    through the trough's constraint (:func:`trough_phi_dd`) or the sling's pendulum
+    (:func:`sling_pendulum_phi_dd`). The accelerations are affine in the generalised forces,
+    so these are exact slopes."""
     z = 0.0 * th
-    ph0, ph_d0, th_dd, ps_dd, ph_dd = phase_accelerations(kind, th, ps, ph, z, z, z, e, 0.0, H,
-                                                          lib, Q_th, Q_ps)
-    return joint_forces_xy(kind, th, z, th_dd, ps, z, ps_dd, ph0, ph_d0, ph_dd, e, 0.0, lib)
+    if kind == 1:
+        i_proj = trough_inertia(trough_f_g(th, ph, e, lib)[0], e)
+        follow = trough_phi_dd(th, ph, z, z, 1.0, e, lib)
+    elif kind == 2:
+        i_proj = sling_inertia(lib.sin(th - ph), e)
+        follow = sling_pendulum_phi_dd(th, z, 1.0, ph, e, 0.0, lib)
+    else:
+        i_proj, follow = z, z
+    th_t, ps_t = beam_and_counterweight(th, ps, z, z, z, i_proj, e, 0.0, lib, 1.0, 0.0)
+    th_p, ps_p = beam_and_counterweight(th, ps, z, z, z, i_proj, e, 0.0, lib, 0.0, 1.0)
+    return th_t, ps_t, follow * th_t, th_p, ps_p, follow * th_p
 
 
 #: Newton steps of :func:`friction_forces` (the third is below round-off for couples of up to
@@ -218,24 +253,27 @@ FRICTION_NEWTON_STEPS = 3
 def friction_pieces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
                     e: Engine, g: float, H: float, lib: ModuleType = np) -> tuple:
     """What the couples of the bearings' friction depend on, in phase ``kind`` at the given
-    angles (rad) and rates (rad/s): ``a_P = μ_P r_P s(θ̇)``, ``a_H = μ_H r_H s(ψ̇ − θ̇)`` (m),
-    the frictionless loads ``F_R₀``, ``F_H₀`` (N) and their slopes in the load magnitudes
-    ``n = (|F_R|, |F_H|)``: ``∂F_R/∂n_R``, ``∂F_R/∂n_H``, ``∂F_H/∂n_R``, ``∂F_H/∂n_H``
-    (dimensionless), 14 numbers in that order. Loads are affine in the accelerations and
-    these in the couples' generalised forces ``Q_θ = −a_P n_R + a_H n_H``, ``Q_ψ = −a_H n_H``,
-    so ``F(n) = F₀ + n_R ∂F/∂n_R + n_H ∂F/∂n_H`` exactly; the slopes come from
-    :func:`_unit_response`."""
+    angles (rad) and rates (rad/s), 25 numbers: ``a_P = μ_P r_P s(θ̇)``, ``a_H = μ_H r_H
+    s(ψ̇ − θ̇)`` (m); the frictionless loads ``F_R₀``, ``F_H₀`` (N) and their slopes in the load
+    magnitudes ``n = (|F_R|, |F_H|)``: ``∂F_R/∂n_R``, ``∂F_R/∂n_H``, ``∂F_H/∂n_R``,
+    ``∂F_H/∂n_H`` (dimensionless); then the frictionless motion (φ, φ̇, θ̈, ψ̈, φ̈) and the
+    accelerations' slopes in ``Q_θ``, ``Q_ψ`` (:func:`couple_response`). Loads are affine in
+    the accelerations and these in the couples' generalised forces ``Q_θ = −a_P n_R + a_H
+    n_H``, ``Q_ψ = −a_H n_H``, so ``F(n) = F₀ + n_R ∂F/∂n_R + n_H ∂F/∂n_H`` exactly."""
     a_P, a_H = friction_couples(1.0, 1.0, th_d, ps_d, e, lib)
-    ph0, ph_d0, th_dd, ps_dd, ph_dd = phase_accelerations(kind, th, ps, ph, th_d, ps_d, ph_d, e,
-                                                          g, H, lib)
+    motion = phase_accelerations(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
+    ph0, ph_d0, th_dd, ps_dd, ph_dd = motion
     R0, H0 = joint_forces_xy(kind, th, th_d, th_dd, ps, ps_d, ps_dd, ph0, ph_d0, ph_dd, e, g,
                              lib)
-    Rt, Ht = _unit_response(kind, th, ps, ph, e, H, lib, 1.0, 0.0)
-    Rp, Hp = _unit_response(kind, th, ps, ph, e, H, lib, 0.0, 1.0)
+    r = couple_response(kind, th, ps, ph0, e, H, lib)
+    z = 0.0 * th
+    Rt, Ht = joint_forces_xy(kind, th, z, r[0], ps, z, r[1], ph0, z, r[2], e, 0.0, lib)
+    Rp, Hp = joint_forces_xy(kind, th, z, r[3], ps, z, r[4], ph0, z, r[5], e, 0.0, lib)
     # ∂F/∂n_R = −a_P ∂F/∂Q_θ;  ∂F/∂n_H = a_H (∂F/∂Q_θ − ∂F/∂Q_ψ)
     return (a_P, a_H, R0[0], R0[1], H0[0], H0[1],
             -a_P * Rt[0], -a_P * Rt[1], a_H * (Rt[0] - Rp[0]), a_H * (Rt[1] - Rp[1]),
-            -a_P * Ht[0], -a_P * Ht[1], a_H * (Ht[0] - Hp[0]), a_H * (Ht[1] - Hp[1]))
+            -a_P * Ht[0], -a_P * Ht[1], a_H * (Ht[0] - Hp[0]), a_H * (Ht[1] - Hp[1]),
+            *motion, *r)
 
 
 def friction_newton_step(p: tuple, n_R: Any, n_H: Any, lib: ModuleType = np
@@ -312,11 +350,28 @@ def phase_motion(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleTy
     as the integrators' lost energies, is ignored): the one dispatch from a phase to its
     accelerations, with the bearings' friction (:func:`friction_forces`) where the engine has
     it, for floats (compiled) and arrays alike."""
-    Q_th = Q_ps = 0.0
     if has_friction(e):
-        th, ps, ph, th_d, ps_d, ph_d = _state_angles(kind, y, lib)
-        Q_th, Q_ps, _, _ = friction_forces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
-    return motion_under(kind, y, e, g, H, Q_th, Q_ps, lib)
+        return _friction_motion(kind, y, e, g, H, lib)
+    return motion_under(kind, y, e, g, H, 0.0, 0.0, lib)
+
+
+def _friction_motion(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleType
+                     ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any, Any, Any]:
+    """:func:`phase_motion` with the bearings' friction: the couples solved on the pieces of
+    :func:`friction_pieces`, the accelerations the frictionless ones plus the couples'
+    generalised forces times their slopes (equal to :func:`motion_under` of those forces to
+    round-off, without evaluating the equations again)."""
+    th, ps, ph, th_d, ps_d, ph_d = _state_angles(kind, y, lib)
+    p = friction_pieces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
+    n_R, n_H = friction_start(p, lib)
+    for _ in range(FRICTION_NEWTON_STEPS):
+        n_R, n_H = friction_newton_step(p, n_R, n_H, lib)
+    Q_th, Q_ps, tau_P, tau_H = friction_result(p, n_R, n_H)
+    th_dd = p[16] + Q_th * p[19] + Q_ps * p[22]
+    ps_dd = p[17] + Q_th * p[20] + Q_ps * p[23]
+    ph_dd = p[18] + Q_th * p[21] + Q_ps * p[24]
+    P_P, P_H = loss_powers(tau_P, tau_H, th_d, ps_d)
+    return th, ps, p[14], th_d, ps_d, p[15], th_dd, ps_dd, ph_dd, P_P, P_H
 
 
 def motion_under(kind: int, y: Any, e: Engine, g: float, H: float, Q_th: Any, Q_ps: Any,

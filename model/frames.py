@@ -23,7 +23,7 @@ try:  # pandas >= 3.0
 except ImportError:  # pragma: no cover - older pandas
     _from_blocks = None
 
-__all__ = ["frame"]
+__all__ = ["frame", "block_frame"]
 
 
 @lru_cache(maxsize=64)
@@ -54,3 +54,21 @@ def frame(columns: Mapping[str, np.ndarray], index: pd.Index | None = None) -> p
                for i, a in enumerate(arrays) if a.dtype != np.float64]
     return _from_blocks(blocks, index=pd.RangeIndex(n) if index is None else index,
                         columns=_columns(names))
+
+
+def block_frame(names: tuple[str, ...], block: np.ndarray,
+                others: Mapping[int, np.ndarray]) -> pd.DataFrame:
+    """A DataFrame of the columns ``names`` on a RangeIndex: the float64 columns are the rows of
+    ``block`` (C order, one row per column, in the order of ``names``) and ``others`` the
+    columns of other dtypes, by position in ``names``. ``block`` is not copied where pandas
+    allows it (pandas >= 3.0)."""
+    n = block.shape[1]
+    float_pos = np.asarray([i for i in range(len(names)) if i not in others], dtype=np.intp)
+    if _from_blocks is None:  # pragma: no cover - older pandas
+        cols = dict(zip((names[i] for i in float_pos), block, strict=True))
+        cols.update({names[i]: v for i, v in others.items()})
+        return pd.DataFrame({k: cols[k] for k in names})
+    blocks = [(block, float_pos)]
+    blocks += [(np.asarray(v).reshape(1, n), np.asarray([i], dtype=np.intp))
+               for i, v in others.items()]
+    return _from_blocks(blocks, index=pd.RangeIndex(n), columns=_columns(tuple(names)))

@@ -70,11 +70,13 @@ def loads(angles: pd.DataFrame, scene: Scene | str | Path, *,
 
 def load_columns(given: dict[str, np.ndarray], scene: Scene, *,
                  form: Literal["direct", "projected"] = "direct",
-                 release_state: dict[str, float] | None = None) -> dict[str, np.ndarray]:
+                 release_state: dict[str, float] | None = None,
+                 lost: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """:func:`loads` on a dict of checked columns (numpy arrays of one length): the input
     columns followed by every load column, as a dict. The simulator's path, free of pandas:
     :func:`row_loads` on every row, compiled (:mod:`trebuchet.model.loads_kernel`), then the
-    projectile in flight after release."""
+    projectile in flight after release. ``lost``: ``E_loss_pivot``, ``E_loss_hinge`` (J) as
+    the simulator integrated them, instead of the trapezoidal sums over the rows."""
     e, g = scene.engine, scene.g
     phase = given["phase"]
     free = phase == 3
@@ -85,7 +87,8 @@ def load_columns(given: dict[str, np.ndarray], scene: Scene, *,
     if has_friction(e):
         t = np.asarray(given["t"], dtype=float)
         for joint in ("pivot", "hinge"):
-            out[f"E_loss_{joint}"] = cumulative_energy(t, out[f"P_loss_{joint}"])
+            name = f"E_loss_{joint}"
+            out[name] = lost[name] if lost else cumulative_energy(t, out[f"P_loss_{joint}"])
     else:
         for name in FRICTION_COLUMNS:
             del out[name]

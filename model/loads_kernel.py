@@ -21,8 +21,9 @@ import numba
 import numpy as np
 
 from trebuchet.model import forces as fo
+from trebuchet.model.numba_cache import discard_stale_cache
 from trebuchet.model.scene import Scene
-from trebuchet.model.shot_kernel import FORMULA_MODULES, discard_stale_cache, jit_engine
+from trebuchet.model.shot_kernel import FORMULA_MODULES, jit_engine
 
 __all__ = ["load_block"]
 

@@ -92,24 +92,25 @@ class _Shot:
 
 def paper_values() -> list[PaperValue]:
     """The paper's quoted numbers and how the model computes each (the context ``c`` is a
-    :class:`_Shot`)."""
+    :class:`_Shot`), section by section."""
     rows: list[PaperValue] = []
 
     def add(section, quantity, paper, unit, tol, compute, note=""):
         rows.append(PaperValue(section, quantity, paper, unit, tol, compute, note))
 
-    for values in (_table_values, _initial_values, _timing_values, _counterweight_values,
-                   _release_values):
-        values(add)
+    for part in (_tables, _initial_and_forces, _counterweight_and_torque, _release_and_energy):
+        part(add)
     return rows
 
 
-def _table_values(add: Callable[..., None]) -> None:
-    """Table 1, Section 4 and Table 3 (t = 0−, 0+)."""
-    kN = 1e3
+KN, MS = 1e3, 1e3  # kN per N, ms per s
+
+
+def _tables(add) -> None:  # noqa: ANN001 - add(section, quantity, paper, unit, tol, compute)
+    """Table 1, Section 4 and Table 3 (the forces at 0− and 0+)."""
     # Table 1 and Section 4.
     add("Table 1", "moment of inertia I", 7704, "kg m²", 0.5, lambda c: c.scene.engine.I)
-    add("Sect. 4", "available energy ΔU", 255, "kJ", 0.5, lambda c: c.delta_u / kN)
+    add("Sect. 4", "available energy ΔU", 255, "kJ", 0.5, lambda c: c.delta_u / KN)
     # Table 3, t = 0− (locking a, perpendicular at the spigot).
     for label, vec, scale, val_h, val_v, tol in (
         ("F_H/Mg", lambda c: c.static.F_H, "Mg", 0.0, 1.0, 0.5e-2),
@@ -134,23 +135,17 @@ def _table_values(add: Callable[..., None]) -> None:
                 lambda c, vec=vec, k=k, scale=scale: vec(c)[k] / getattr(c, scale))
 
 
-def _initial_values(add: Callable[..., None]) -> None:
-    """Section 9.5: the initial accelerations and torque."""
-    kN = 1e3
+def _initial_and_forces(add) -> None:  # noqa: ANN001
+    """Section 9.5 (the accelerations and torque at 0+) and Section 11.1 (the forces)."""
     # Section 9: initial accelerations and torque.
     add("Sect. 9.5", "θ̈ at 0+", 5.79, "rad/s²", 0.005, lambda c: c.initial.theta_dd)
-    add("Sect. 9.5", "torque N_i at 0+", 45, "kN m", 0.5, lambda c: c.initial.N / kN)
+    add("Sect. 9.5", "torque N_i at 0+", 45, "kN m", 0.5, lambda c: c.initial.N / KN)
     add("Sect. 9.5", "hinge's torque 0.67 Mg L2 cos θ_i", 70, "kN m", 0.5,
-        lambda c: c.initial.N_counterweight / kN)
+        lambda c: c.initial.N_counterweight / KN)
     add("Sect. 9.5", "reduction of N_i by spigot and CM", 36, "%", 0.5,
         lambda c: 100 * (1 - c.initial.N / c.initial.N_counterweight))
-
-
-def _timing_values(add: Callable[..., None]) -> None:
-    """Section 11.1: the loads' time dependencies."""
-    ms = 1e3
     # Section 11: time dependencies.
-    add("Sect. 11.1", "lift-off", 343, "ms", 0.5, lambda c: c.events["lift_off"] * ms,
+    add("Sect. 11.1", "lift-off", 343, "ms", 0.5, lambda c: c.events["lift_off"] * MS,
         "the model lifts off 4.8 ms later; an independent implementation (docs/background.md) "
         "agrees with the model, so this is the paper's reading")
     add("Sect. 11.1", "sling tension at release", 52, "mg", 0.5,
@@ -160,7 +155,7 @@ def _timing_values(add: Callable[..., None]) -> None:
     add("Sect. 11.1", "max sling component across the beam", 35, "mg", 0.5,
         lambda c: c.peak(c.col("F_S_perp"))[0] / c.mg)
     add("Sect. 11.1", "time of that maximum", 876, "ms", 0.5,
-        lambda c: c.peak(c.col("F_S_perp"))[1] * ms)
+        lambda c: c.peak(c.col("F_S_perp"))[1] * MS)
     add("Sect. 11.1", "hinge force F_H, minimum about halfway", 0.5, "Mg", 0.05,
         lambda c: c.col("F_H_abs").min() / c.Mg)
     add("Sect. 11.1", "hinge force F_H, maximum", 2.58, "Mg", 0.005,
@@ -173,21 +168,20 @@ def _timing_values(add: Callable[..., None]) -> None:
     add("Sect. 11.1", "max bending load |F_R·e_θ⊥|", 1.6, "Mg", 0.05,
         lambda c: np.abs(c.col("F_R_perp")).max() / c.Mg)
     add("Sect. 11.1", "time of max bending", 820, "ms", 5,
-        lambda c: c.peak(np.abs(c.col("F_R_perp")))[1] * ms)
+        lambda c: c.peak(np.abs(c.col("F_R_perp")))[1] * MS)
     add("Sect. 11.1", "sling's share of the max bending load", 10, "%", 1,
         lambda c: 100 * c.col("F_S_perp")[int(np.argmax(np.abs(c.col("F_R_perp"))))]
         / c.col("F_R_perp")[int(np.argmax(np.abs(c.col("F_R_perp"))))])
 
 
-def _counterweight_values(add: Callable[..., None]) -> None:
-    """Sections 11.2 and 11.3: the counterweight's force, the torque."""
-    ms = 1e3
+def _counterweight_and_torque(add) -> None:  # noqa: ANN001
+    """Section 11.2 (the counterweight's force) and 11.3 (the torque)."""
     add("Sect. 11.2", "F_M at 0+ (paper: 1/3 of Mg; Table 3: 0.33)", 0.33, "Mg", 0.005,
         lambda c: c.col("F_M_abs")[0] / c.Mg)
     add("Sect. 11.2", "F_M at lift-off", 0.5, "Mg", 0.005,
         lambda c: c.at("F_M_abs", c.events["lift_off"]) / c.Mg)
     add("Sect. 11.2", "F_M turns horizontal", 695, "ms", 5,
-        lambda c: c.first_crossing(c.col("F_M_y"), after=0.4) * ms)
+        lambda c: c.first_crossing(c.col("F_M_y"), after=0.4) * MS)
     add("Sect. 11.2", "F_M maximum (paper: larger than 1.5 Mg)", 1.5, "Mg", 0.1,
         lambda c: c.col("F_M_abs").max() / c.Mg)
     add("Sect. 11.2", "F_M at release (paper: close to 0.5 Mg)", 0.5, "Mg", 0.05,
@@ -197,13 +191,12 @@ def _counterweight_values(add: Callable[..., None]) -> None:
     add("Sect. 11.2", "largest lifting force on the projectile (F_m·e_y)", 23, "mg", 0.5,
         lambda c: c.col("F_m_y").max() / c.mg)
     add("Sect. 11.3", "torque N crosses zero", 820, "ms", 15,
-        lambda c: c.first_crossing(c.col("torque"), after=0.5) * ms,
+        lambda c: c.first_crossing(c.col("torque"), after=0.5) * MS,
         "the paper: 'near 820 ms ... at almost the same time' as the max bending (818 ms)")
 
 
-def _release_values(add: Callable[..., None]) -> None:
-    """Sections 11.4–12 and 2: the release, energies, powers, range."""
-    kN, ms = 1e3, 1e3
+def _release_and_energy(add) -> None:  # noqa: ANN001
+    """Sections 11.4-11.6, 12 and 2: the release, the energies and the range."""
     add("Sect. 11.4", "climb at release", 40, "°", 0.5,
         lambda c: math.degrees(c.flight["release_angle"]),
         "39.5° at 997 ms; 40° is reached at 994 ms")
@@ -214,22 +207,22 @@ def _release_values(add: Callable[..., None]) -> None:
         "5.32 m at 997 ms; 5.53 m at 993 ms")
     add("Sect. 11.4", "release speed", 66, "m/s", 0.5, lambda c: c.flight["release_speed"])
     add("Sect. 11.4", "kinetic energy at release", 218, "kJ", 0.5,
-        lambda c: 0.5 * c.scene.engine.m * c.flight["release_speed"] ** 2 / kN)
+        lambda c: 0.5 * c.scene.engine.m * c.flight["release_speed"] ** 2 / KN)
     add("Sect. 11.4", "potential energy at release", 15, "kJ", 0.5,
-        lambda c: c.scene.engine.m * c.scene.g * c.flight["release_height"] / kN)
+        lambda c: c.scene.engine.m * c.scene.g * c.flight["release_height"] / KN)
     add("Sect. 11.5", "projectile energy at release", 233, "kJ", 0.5,
-        lambda c: c.release("E_m") / kN)
+        lambda c: c.release("E_m") / KN)
     add("Sect. 11.5", "max power on the projectile (paper: larger than 800 kW)", 800, "kW", 5,
-        lambda c: c.col("P_m").max() / kN)
+        lambda c: c.col("P_m").max() / KN)
     add("Sect. 11.5", "time of max power on the projectile", 859, "ms", 0.5,
-        lambda c: c.peak(c.col("P_m"))[1] * ms,
+        lambda c: c.peak(c.col("P_m"))[1] * MS,
         "the model's peak lies at 859.5 ms, on the edge of the paper's rounding")
     add("Sect. 11.6", "beam's peak energy (almost 80 kJ)", 80, "kJ", 2.5,
-        lambda c: c.col("E_beam").max() / kN)
+        lambda c: c.col("E_beam").max() / KN)
     add("Sect. 11.6", "beam's peak share of ΔU", 30, "%", 1,
         lambda c: 100 * c.col("E_beam").max() / c.delta_u)
     add("Sect. 11.6", "beam's peak power to the projectile (almost 400 kW)", 400, "kW", 15,
-        lambda c: -c.col("P_beam").min() / kN)
+        lambda c: -c.col("P_beam").min() / KN)
     add("Sect. 12", "projectile's share of ΔU at release", 91.3, "%", 0.05,
         lambda c: 100 * c.release("E_m") / c.delta_u,
         "233.2/254.6 = 91.6%; the paper's 91.3% does not follow from its own 233 and 255 kJ "

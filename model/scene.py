@@ -13,171 +13,26 @@ counterweight trebuchet: on internal forces" (called *the paper* below).
 from __future__ import annotations
 
 import math
-import numbers
+import re
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.model.engine import (
+    DEFAULT_SMOOTHING_RATE,
+    Engine,
+    Flight,
+    Friction,
+    Release,
+    Start,
+    default_moment_of_inertia,
+)
+from trebuchet.user_files import read_user_file
 
 __all__ = ["Engine", "Friction", "Start", "Release", "Flight", "Scene", "SCENE_KEYS", "as_scene",
            "default_moment_of_inertia", "DEFAULT_SMOOTHING_RATE"]
-
-#: rad/s: the sliding rate over which the friction couple's sign turns, ``tanh(w / rate)``.
-DEFAULT_SMOOTHING_RATE = 1e-3
-
-
-def default_moment_of_inertia(m_b: float, L1: float, L2: float) -> float:
-    """Moment of inertia of a uniform beam about the pivot, kg m².
-
-    ``I = m_b (L1² − L1 L2 + L2²) / 3`` (the paper, Section 2; 7704 kg m² for Table 1).
-    """
-    return m_b * (L1 * L1 - L1 * L2 + L2 * L2) / 3.0
-
-
-@dataclass(frozen=True)
-class Friction:
-    """Coulomb friction in the engine's two bearings: the paper's "heat in proportion to load".
-
-    At the beam's shaft (the pivot) a couple of magnitude ``pivot_mu · pivot_radius · |F_R|``
-    opposes the beam's turning rate θ̇; at the counterweight's hinge pin a couple of magnitude
-    ``hinge_mu · hinge_radius · |F_H|`` opposes the arm's rate relative to the beam, ψ̇ − θ̇.
-    ``*_mu`` are Coulomb coefficients (dimensionless), ``*_radius`` the radii of shaft and pin
-    (m). The sign of a sliding rate ``w`` (rad/s) is taken as ``tanh(w / smoothing_rate)``.
-    """
-
-    pivot_mu: float = 0.0
-    pivot_radius: float = 0.0
-    hinge_mu: float = 0.0
-    hinge_radius: float = 0.0
-    smoothing_rate: float = DEFAULT_SMOOTHING_RATE
-
-    def __post_init__(self) -> None:
-        for name in ("pivot_mu", "pivot_radius", "hinge_mu", "hinge_radius", "smoothing_rate"):
-            value = getattr(self, name)
-            if not (isinstance(value, numbers.Real) and math.isfinite(value) and value >= 0.0):
-                raise TrebuchetInputError(f"Friction: {name} = {value!r}: must be a finite "
-                                          "number, zero or positive")
-        if self.smoothing_rate <= 0.0:
-            raise TrebuchetInputError(f"Friction: smoothing_rate = {self.smoothing_rate!r}: "
-                                      "must be positive")
-
-    @property
-    def pivot(self) -> float:
-        """``μ_P r_P``, m: the pivot's friction couple per newton of bearing load."""
-        return self.pivot_mu * self.pivot_radius
-
-    @property
-    def hinge(self) -> float:
-        """``μ_H r_H``, m: the hinge's friction couple per newton of hinge force."""
-        return self.hinge_mu * self.hinge_radius
-
-
-@dataclass(frozen=True)
-class Engine:
-    """Lengths (m), masses (kg) and moment of inertia (kg m²) of the engine (paper, Table 1).
-
-    ``L1`` pivot to spigot, ``L2`` pivot to hinge, ``L_CM`` pivot to the beam's
-    centre of mass (positive toward the spigot), ``L3`` hinge to counterweight,
-    ``L4`` sling, ``m_b`` beam, ``M`` counterweight, ``m`` projectile, ``I``
-    beam about the pivot. ``counterweight_offset`` (rad) is None for the paper's hinged
-    counterweight; for a counterweight fixed rigidly to the beam it is the constant ``ψ − θ``.
-    ``friction``: the bearings' Coulomb friction (:class:`Friction`), None for the paper's
-    frictionless engine.
-    """
-
-    L1: float
-    L2: float
-    L_CM: float
-    L3: float
-    L4: float
-    m_b: float
-    M: float
-    m: float
-    I: float
-    counterweight_offset: float | None = None
-    friction: Friction | None = None
-
-    def __post_init__(self) -> None:
-        """Refuse what no engine can be, also where a program builds or ``replace``-s one (a
-        scene file's reader names the file and key before it gets here)."""
-        positive = ("L1", "L2", "L3", "m_b", "M", "I")
-        for name in (*positive, "L4", "m"):  # no sling or projectile in a dry fire: 0
-            value = getattr(self, name)
-            if not (isinstance(value, numbers.Real) and math.isfinite(value)):
-                raise TrebuchetInputError(f"Engine: {name} = {value!r}: must be a finite number")
-            if value < 0.0 or (value == 0.0 and name in positive):
-                raise TrebuchetInputError(f"Engine: {name} = {value:g}: must be "
-                                          + ("positive" if name in positive else
-                                             "zero or positive"))
-        if not -self.L2 <= self.L_CM <= self.L1:
-            raise TrebuchetInputError(f"Engine: L_CM = {self.L_CM!r} m: must lie on the beam, "
-                                      f"between -L2 = {-self.L2:g} m and L1 = {self.L1:g} m")
-
-    @property
-    def fixed_counterweight(self) -> bool:
-        """True when the counterweight is rigid on the beam at ``ψ = θ + counterweight_offset``
-        (rad) instead of swinging on its hinge."""
-        return self.counterweight_offset is not None
-
-    @property
-    def pivot_friction(self) -> float:
-        """``μ_P r_P`` (m) of :attr:`friction`; 0 without friction."""
-        return 0.0 if self.friction is None else self.friction.pivot
-
-    @property
-    def hinge_friction(self) -> float:
-        """``μ_H r_H`` (m) of :attr:`friction`; 0 without friction."""
-        return 0.0 if self.friction is None else self.friction.hinge
-
-    @property
-    def friction_rate(self) -> float:
-        """The sliding rate (rad/s) of the friction couples' ``tanh`` sign."""
-        return DEFAULT_SMOOTHING_RATE if self.friction is None else self.friction.smoothing_rate
-
-    @property
-    def first_moment(self) -> float:
-        """Gravity moment ``M L2 − m_b L_CM`` that drives the beam, kg m (paper, ΔU)."""
-        return self.M * self.L2 - self.m_b * self.L_CM
-
-
-@dataclass(frozen=True)
-class Start:
-    """Pose at rest before the trigger, rad; ``H`` the height of the pivot above the trough, m.
-
-    The paper puts the spigot on the ground at the start, ``H = −L1 sin θ_i``.
-    """
-
-    theta: float
-    psi: float
-    phi: float
-    H: float
-
-
-@dataclass(frozen=True)
-class Release:
-    """When the projectile leaves the sling: at ``time`` (s after the trigger) or when its
-    velocity climbs at ``velocity_angle`` (rad above horizontal), whichever comes first.
-
-    A scene file names exactly one; programs (the FMU's release command) may set both.
-    """
-
-    time: float | None = None
-    velocity_angle: float | None = None
-
-
-@dataclass(frozen=True)
-class Flight:
-    """How the projectile flies after release: ``model`` "vacuum" (the paper) or "drag"
-    (quadratic air drag on a sphere of ``diameter`` m, drag coefficient ``drag_coefficient``,
-    air density ``air_density`` kg/m³)."""
-
-    model: str = "vacuum"
-    diameter: float = 0.0
-    drag_coefficient: float = 0.47
-    air_density: float = 1.225
-
 
 @dataclass(frozen=True)
 class Scene:
@@ -215,15 +70,29 @@ class Scene:
         """Load and validate a scene file (docs/interface.md, "Scene file")."""
         path = Path(path)
         try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise TrebuchetInputError(f"{path}: scene file not found") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise TrebuchetInputError(f"{path}: cannot read scene file: {exc}") from None
+            raw = read_user_file(path, "scene file", MAX_SCENE_BYTES)
+        except TrebuchetInputError as exc:
+            if exc.message == "no such file":
+                raise TrebuchetInputError(f"{path}: scene file not found") from None
+            raise TrebuchetInputError(f"{path}: {exc.message}") from None
+        try:
+            text = raw.decode("utf-8-sig")  # a byte-order mark (Windows' editors) is no TOML
+        except UnicodeDecodeError as exc:
+            raise TrebuchetInputError(f"{path}: cannot read scene file: not UTF-8 text (byte "
+                                      f"{exc.start}: a scene file is TOML in UTF-8)") from None
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise TrebuchetInputError(f"{path}: not valid TOML: {exc}") from None
+        except ValueError:  # an integer of more than Python's 4300 digits
+            long = re.search(r"[0-9_]{4000,}", text)
+            where = f"line {text.count(chr(10), 0, long.start()) + 1}: " if long else ""
+            raise TrebuchetInputError(f"{path}: not valid TOML: {where}a number of more than "
+                                      "4300 digits") from None
+        except RecursionError:
+            raise TrebuchetInputError(f"{path}: not valid TOML for a scene: arrays or tables "
+                                      "nested within each other more deeply than Python "
+                                      "reads them (a scene's values are numbers)") from None
         return cls.from_dict(data, source=str(path))
 
     @classmethod
@@ -298,6 +167,18 @@ _REQUIRED_ENGINE = ("L1", "L2", "L_CM", "L3", "M", "m_b")
 SCENE_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in _SECTIONS.items()}
 
 
+#: Largest magnitude of a scene's number (m, kg, s, m/s², degrees or rad): far beyond any
+#: engine's, short of the numbers whose products in the equations of motion overflow.
+MAX_MAGNITUDE = 1e15
+#: Least length (m) of an engine: 1 µm (a shorter sling stalls the integrator).
+MIN_LENGTH = 1e-6
+#: Least value of any other positive quantity (kg, s, m/s², kg/m³): far below any engine's,
+#: above the numbers whose reciprocal overflows.
+MIN_POSITIVE = 1e-30
+#: Bytes of a scene file (one is a few hundred).
+MAX_SCENE_BYTES = 1 << 20
+
+
 class _Reader:
     """Reads numbers from one scene dict and names file, section and key in every error."""
 
@@ -323,26 +204,57 @@ class _Reader:
                             + ", ".join(sorted(_SECTIONS[name])) + ")")
         return sec
 
-    def number(self, section: str, key: str, sec: dict[str, Any]) -> float:
+    @staticmethod
+    def shown(value: Any) -> str:
+        """``value`` for a message, short whatever it is (a nested array, a huge integer)."""
+        if isinstance(value, list):
+            return f"an array of {len(value)}"
+        if isinstance(value, dict):
+            return f"a table of {len(value)} keys"
+        if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
+            return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+        text = repr(value)
+        return text if len(text) <= 40 else text[:37] + "..."
+
+    def number(self, section: str, key: str, sec: dict[str, Any], unit: str = "") -> float:
+        """A finite number within ±:data:`MAX_MAGNITUDE` (in the key's unit: SI or degrees):
+        beyond it no engine's value lies, and the equations of motion overflow. ``unit`` (as
+        ``positive`` words it: "mass in kg") is named in the message."""
         value = sec[key]
         if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.fail(section, key, f"must be a number, got {value!r}")
-        value = float(value)
-        if not math.isfinite(value):
+            raise self.fail(section, key, f"must be a number, got {self.shown(value)}")
+        try:
+            number = float(value)
+        except OverflowError:
+            number = math.inf
+        if isinstance(value, float) and not math.isfinite(number):
             raise self.fail(section, key, f"must be finite, got {value}")
-        return value
+        if not abs(number) <= MAX_MAGNITUDE:
+            shown = self.shown(value) if isinstance(value, int) else f"{number:.4g}"
+            symbol = f" {unit.rsplit(' in ', 1)[-1]}" if " in " in unit and not isinstance(
+                value, int) else ""
+            raise self.fail(section, key, f"= {shown}{symbol}: beyond {MAX_MAGNITUDE:.0e}, "
+                            "which no engine's length, mass, angle or time reaches (the "
+                            "equations of motion overflow)")
+        return number
 
     def positive(self, section: str, key: str, sec: dict[str, Any], unit: str) -> float:
-        value = self.number(section, key, sec)
+        """A positive number: a length of at least :data:`MIN_LENGTH`, anything else of at
+        least :data:`MIN_POSITIVE` (a vanishing mass or density is a limit worth taking)."""
+        value = self.number(section, key, sec, unit)
         if value <= 0.0:
             raise self.fail(section, key, f"= {value:g}: must be a positive {unit}")
+        least = MIN_LENGTH if unit.startswith("length") else MIN_POSITIVE
+        if value < least:
+            raise self.fail(section, key, f"= {value:.4g}: less than {least:g}, which no "
+                            f"engine's {unit} is")
         return value
 
     def choice(self, section: str, key: str, sec: dict[str, Any], options: tuple[str, ...]) -> str:
         """A string key that must be one of ``options``; the first option is the default."""
         value = sec.get(key, options[0])
-        if value not in options:
-            raise self.fail(section, key, f"= {value!r}: must be one of "
+        if not isinstance(value, str) or value not in options:
+            raise self.fail(section, key, f"= {self.shown(value)}: must be one of "
                             + ", ".join(repr(o) for o in options))
         return value
 
@@ -430,8 +342,12 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
                      f"between -90° and 0° (spigot low, on the projectile's side){hint}")
     H = r.positive("engine", "H", eng, "height in m") if "H" in eng else -L1 * math.sin(theta)
     offset = psi - theta if mount == "fixed" else None
-    engine = Engine(L1=L1, L2=L2, L_CM=L_CM, L3=L3, L4=L4, m_b=m_b, M=M, m=m, I=I,
-                    counterweight_offset=offset, friction=_parse_friction(r))
+    friction = _parse_friction(r)
+    try:
+        engine = Engine(L1=L1, L2=L2, L_CM=L_CM, L3=L3, L4=L4, m_b=m_b, M=M, m=m, I=I,
+                        counterweight_offset=offset, friction=friction)
+    except TrebuchetInputError as exc:  # "Engine: I = inf: ...": the file's key, by name
+        raise _engine_error(r, eng, exc) from None
     _check_start_pose(r, engine, theta, psi, phi, H, projectile, st, "H" in eng)
     start = Start(theta=theta, psi=psi, phi=phi, H=H)
 
@@ -455,6 +371,20 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
     g = r.positive("environment", "g", env, "acceleration in m/s²") if "g" in env else 9.81
     return Scene(engine=engine, start=start, release=release, g=g, projectile=projectile,
                  flight=_parse_flight(r), source=source)
+
+
+def _engine_error(r: _Reader, eng: dict[str, Any], exc: TrebuchetInputError
+                  ) -> TrebuchetInputError:
+    """An :class:`Engine`'s refusal in the words of the scene file: the key as written, or
+    for a moment of inertia not given, the keys it is computed from."""
+    m = re.match(r"Engine: (\w+) = ([^:]*): (.*)", str(exc))
+    if m is None:
+        return r.fail("engine", None, str(exc))
+    name, value, problem = m.groups()
+    if name == "I" and "I" not in eng:
+        return r.fail("engine", "I", f"(not given: m_b (L1² − L1 L2 + L2²) / 3 of m_b, L1 and "
+                      f"L2) = {value}: {problem}")
+    return r.fail("engine", name, f"= {value}: {problem}")
 
 
 def _parse_friction(r: _Reader) -> Friction | None:

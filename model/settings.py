@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 
 __all__ = ["DEFAULT_RTOL", "ACCURACY", "DEFAULT_AFTER_RELEASE", "MAX_DT", "output_step",
-           "accuracy_option"]
+           "accuracy_option", "TIME_BUDGET", "MEMORY_BUDGET", "DESIGN_POPSIZE",
+           "DESIGN_GENERATIONS", "memory_size", "positive_seconds", "add_budget_options"]
 
 DEFAULT_RTOL = 1e-10
 ACCURACY = {"fast": 1e-6, "default": DEFAULT_RTOL, "precise": 1e-12}  # named tolerances
@@ -47,3 +48,45 @@ def accuracy_option(text: str) -> float | str:
     if not 0.0 < value < 1e-2:
         raise argparse.ArgumentTypeError(f"{text}: a tolerance must lie between 0 and 1e-2")
     return value
+
+
+# --------------------------------------------------------------------------- sweeps and designs
+# (``sweep`` and ``design``: model/sweep_design.py and model/design_search.py take them here)
+
+TIME_BUDGET = 60.0  # s one design may run in a worker process before it is stopped
+MEMORY_BUDGET = 2 * 2**30  # bytes a worker may grow by running one design
+DESIGN_POPSIZE = 8  # designs per varied key in a generation of the design search
+DESIGN_GENERATIONS = 20  # generations of evolution at most
+_SIZE_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def memory_size(text: str) -> int:
+    """``--memory-budget``: bytes from ``2G``, ``500M``, ``1.5G`` or a plain number of bytes."""
+    import re
+
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([KMGT]?)i?B?\s*", text,
+                     re.IGNORECASE)
+    if not m:
+        raise argparse.ArgumentTypeError(f"{text!r}: give a size such as 2G, 500M or 1.5G")
+    return int(float(m.group(1)) * _SIZE_UNITS[m.group(2).upper()])
+
+
+def positive_seconds(text: str) -> float:
+    """A positive, finite number of seconds (``--time-budget``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number of seconds") from None
+    if not 0.0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text}: must be a positive number of seconds")
+    return value
+
+
+def add_budget_options(p: argparse.ArgumentParser) -> None:
+    """``--time-budget`` and ``--memory-budget`` (``sweep`` and ``design``)."""
+    p.add_argument("--time-budget", type=positive_seconds, default=TIME_BUDGET, metavar="S",
+                   help="wall time one design may take in a worker process before it is "
+                        f"stopped and marked over_budget (default {TIME_BUDGET:g} s)")
+    p.add_argument("--memory-budget", type=memory_size, default=MEMORY_BUDGET,
+                   metavar="SIZE", help="memory a worker may grow by running one design "
+                                        f"(default {MEMORY_BUDGET / 2**30:g}G)")

@@ -7,12 +7,14 @@ up to rounding) runs compiled, calling the formulas of :mod:`trebuchet.model.dyn
 :mod:`trebuchet.model.phase_events` themselves: numba compiles those modules' functions
 unchanged (``lib=math``), so no formula is written twice.
 
-* :func:`solve_phase` integrates one phase (1 trough, 2 sling, 3 released) until its end or the
-  first event that ends it, and returns a :class:`KernelSolution`: the steps and their
-  interpolation coefficients (every step's, computed in the loop: three more right-hand-side
-  calls a step);
-* :meth:`KernelSolution.columns` evaluates angles, rates and accelerations at many times at
-  once (the dense output and the equations of motion, compiled).
+* :func:`_integrate` integrates one phase (1 trough, 2 sling, 3 released) until its end or the
+  first event that ends it: the steps and their interpolation coefficients (every step's,
+  computed in the loop: three more right-hand-side calls a step);
+* :func:`_columns` evaluates angles, rates and accelerations at many times at once (the dense
+  output and the equations of motion, compiled).
+
+:mod:`trebuchet.model.kernel_phase` is their Python face (``solve_phase``,
+``KernelSolution``).
 
 Compiled code is cached on disk (numba ``cache=True``); a digest of the source files it is
 built from is kept beside the cache, and a cache built from other sources is discarded on
@@ -22,12 +24,10 @@ environment compiles for a few seconds.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import sys
 import types
 from collections import namedtuple
-from dataclasses import dataclass
 from pathlib import Path
 
 import numba
@@ -41,10 +41,11 @@ from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
 from trebuchet.model.dop853_tableau import DOP853 as _dop
 from trebuchet.model.integrator import DENSE_ORDER, ERROR_ORDER, _crossed, next_step_size
+from trebuchet.model.numba_cache import discard_stale_cache
 from trebuchet.model.scene import Engine
 
-__all__ = ["JitEngine", "jit_engine", "solve_phase", "KernelSolution", "STATE_SIZE",
-           "discard_stale_cache", "FORMULA_MODULES"]
+__all__ = ["JitEngine", "jit_engine", "STATE_SIZE", "FORMULA_MODULES", "say_compiling",
+           "INTERPOLATOR_COEFFICIENTS"]
 
 #: The modules whose functions compiled code calls unchanged (``lib=math``).
 FORMULA_MODULES = (kin, fr, fo, dyn, pev)
@@ -72,6 +73,8 @@ _E3 = np.ascontiguousarray(_dop.E3, dtype=np.float64)
 _E5 = np.ascontiguousarray(_dop.E5, dtype=np.float64)
 _D = np.ascontiguousarray(_dop.D[:_NP - 3, :_NX], dtype=np.float64)
 assert DENSE_ORDER == _NP  # noqa: S101 - the interpolant below has 7 coefficients
+#: Coefficients of a step's interpolating polynomial (DOP853's dense output).
+INTERPOLATOR_COEFFICIENTS = _NP
 
 
 def jit_engine(e: Engine) -> JitEngine:
@@ -390,8 +393,12 @@ def _state_at(ts, Y, Hs, Fs, t, y):  # noqa: ANN001, ANN202
 
 @numba.njit(cache=True)
 def _columns(kind, e, g, H, ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
-    """Rows θ, ψ, φ, θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈ of ``out`` at times ``t`` (φ NaN in phase 3)."""
+    """Rows θ, ψ, φ, θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈ of ``out`` at times ``t`` (φ NaN in phase 3); where
+    ``out`` has more rows, the states after the phase's angles and rates (the lost energies
+    of friction) follow."""
     y = np.empty(Y.shape[1])
+    extra = out.shape[0] - 9
+    first = y.shape[0] - extra
     for m in range(t.shape[0]):
         _state_at(ts, Y, Hs, Fs, t[m], y)
         th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = dyn.phase_state(kind, y, e, g, H,
@@ -399,6 +406,8 @@ def _columns(kind, e, g, H, ts, Y, Hs, Fs, t, out):  # noqa: ANN001, ANN202
         out[0, m], out[1, m], out[2, m] = th, ps, ph
         out[3, m], out[4, m], out[5, m] = th_d, ps_d, ph_d
         out[6, m], out[7, m], out[8, m] = th_dd, ps_dd, ph_dd
+        for j in range(extra):
+            out[9 + j, m] = y[first + j]
 
 
 @numba.njit(cache=True)
@@ -416,29 +425,6 @@ _SOURCES = (*(Path(m.__file__) for m in FORMULA_MODULES), Path(_crossed.__code__
             Path(__file__))
 
 
-def discard_stale_cache(compiled: tuple, sources: tuple[Path, ...], name: str) -> bool:
-    """Numba re-validates a cached function against its own file only; the formulas it calls
-    live in other files. Keep a digest of all ``sources`` beside the cache (in a file named
-    after ``name``) and empty the cache index of every function of ``compiled`` when it
-    differs. True when the compiled code must be built (again)."""
-    try:
-        cache_dir = Path(compiled[0]._cache._cache_path)  # numba's cache locator
-    except AttributeError:  # pragma: no cover - caching off or numba internals moved
-        return True
-    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
-    stamp = cache_dir / f"{name}.sources"
-    try:
-        if stamp.is_file() and stamp.read_text() == digest:
-            return False
-        for fn in compiled:
-            fn._cache.flush()
-        cache_dir.mkdir(parents=True, exist_ok=True)
-        stamp.write_text(digest)
-    except OSError:  # pragma: no cover - a read-only cache: numba falls back or recompiles
-        pass
-    return True
-
-
 def _discard_stale_cache() -> bool:
     """:func:`discard_stale_cache` of this module's compiled functions."""
     return discard_stale_cache(_COMPILED, _SOURCES, "trebuchet_shot_kernel")
@@ -447,109 +433,10 @@ def _discard_stale_cache() -> bool:
 _cold = _discard_stale_cache()
 
 
-def _say_compiling() -> None:
+def say_compiling() -> None:
     """One line on stderr before the first compilation of a fresh installation (~15 s)."""
     global _cold
     if _cold:
         _cold = False
         print("trebuchet: compiling the simulator (once per installation, about 15 s)...",
               file=sys.stderr, flush=True)
-
-
-# ---------------------------------------------------------------------------------------------
-# The Python face
-
-@dataclass(frozen=True, eq=False)
-class KernelSolution:
-    """One integrated phase: steps starting at ``t_steps`` (s) of size ``h`` from states
-    ``y_steps`` with interpolation coefficients ``coef`` (steps × 7 × n), ending at ``t_end``.
-    Callable like scipy's ``OdeSolution``; fields of ``solve_ivp``'s result for the events."""
-
-    kind: int
-    engine: JitEngine
-    g: float
-    H: float
-    t_steps: np.ndarray
-    h: np.ndarray
-    y_steps: np.ndarray
-    coef: np.ndarray
-    t_end: float
-    y_end: np.ndarray
-    status: int
-    nfev: int
-    n_rejected: int
-    t_events: list[np.ndarray]
-    y_events: list[np.ndarray]
-
-    @property
-    def sol(self) -> KernelSolution:
-        return self
-
-    @property
-    def message(self) -> str:
-        return {0: "The solver successfully reached the end of the integration interval.",
-                1: "A termination event occurred.",
-                -1: "Required step size is less than spacing between numbers."}[self.status]
-
-    @property
-    def t(self) -> np.ndarray:
-        """Step ends, as ``solve_ivp``'s ``t`` (the first is the start)."""
-        return np.append(self.t_steps, self.t_end) if self.t_steps.size else np.array(
-            [self.t_end])
-
-    @property
-    def y(self) -> np.ndarray:
-        """States at :attr:`t`, shape (n, steps + 1)."""
-        return np.column_stack([*self.y_steps, self.y_end]) if self.t_steps.size else (
-            self.y_end[:, None])
-
-    def _grid(self) -> np.ndarray:
-        return np.append(self.t_steps, self.t_end)
-
-    def __call__(self, t: np.ndarray | float) -> np.ndarray:
-        tt = np.atleast_1d(np.asarray(t, dtype=float))
-        out = np.empty((self.y_end.size, tt.size))
-        if self.t_steps.size == 0:
-            out[:] = self.y_end[:, None]
-        else:
-            _states(self._grid(), self.y_steps, self.h, self.coef, tt, out)
-        return out[:, 0] if np.ndim(t) == 0 else out
-
-    def columns(self, t: np.ndarray, out: np.ndarray) -> None:
-        """Angles, rates and accelerations (rows θ, ψ, φ, θ̇, ψ̇, φ̇, θ̈, ψ̈, φ̈; rad, rad/s,
-        rad/s²) at times ``t`` (s) into ``out`` (9 × len(t))."""
-        if self.t_steps.size == 0:  # a phase of zero length: the one state it holds
-            ts, Y = np.array([self.t_end, self.t_end + 1.0]), self.y_end[None, :]
-            coef, h = np.zeros((1, _NP, self.y_end.size)), np.ones(1)
-        else:
-            ts, Y, coef, h = self._grid(), self.y_steps, self.coef, self.h
-        _columns(self.kind, self.engine, self.g, self.H, ts, Y, h, coef,
-                 np.ascontiguousarray(t, dtype=float), out)
-
-
-def solve_phase(kind: int, engine: Engine, g: float, H: float, t0: float, t1: float,
-                y0: np.ndarray, rtol: float, first_step: float | None = None,
-                events: tuple[tuple[int, float], ...] = ()) -> KernelSolution:
-    """Integrate phase ``kind`` (1, 2, 3) from ``t0`` to ``t1`` (s) with DOP853 at ``rtol``
-    (``atol = rtol/100``), stopping at the first of ``events`` (pairs of a kind of
-    :mod:`~trebuchet.model.phase_events` and its parameter) located to ~1e-15 s by Brent's
-    method on the step's polynomial."""
-    _say_compiling()
-    e = jit_engine(engine)
-    y0 = np.ascontiguousarray(y0, dtype=float)
-    n = y0.size
-    kinds = np.array([k for k, _ in events], dtype=np.int64)
-    pars = np.array([p for _, p in events], dtype=float)
-    dirs = np.array([pev.DIRECTION[k] for k, _ in events], dtype=float)
-    atol = np.full(n, rtol * 1e-2)
-    (T, Hs, Y, Fs, t_end, y_end, status, nfev, n_rej,
-     which) = _integrate(kind, e, float(g), float(H), float(t0), float(t1), y0, float(rtol),
-                         atol, float(first_step or 0.0), kinds, dirs, pars)
-    t_events = [np.empty(0) for _ in events]
-    y_events = [np.empty((0, n)) for _ in events]
-    if which >= 0:
-        t_events[which] = np.array([t_end])
-        y_events[which] = y_end[None, :].copy()
-    return KernelSolution(kind, e, float(g), float(H), T, Hs, Y, Fs, float(t_end),
-                          np.asarray(y_end, dtype=float), int(status), int(nfev), int(n_rej),
-                          t_events, y_events)

@@ -22,16 +22,18 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.model import c_engine
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import kinematics as kin
 from trebuchet.model import phase_events as pev
 from trebuchet.model.flight import flight_summary
-from trebuchet.model.frames import frame
+from trebuchet.model.frames import block_frame, frame
 from trebuchet.model.friction import has_friction
 from trebuchet.model.loads import load_columns
-from trebuchet.model.output_size import MAX_ROWS, check_output_size
+from trebuchet.model.output_size import check_output_size
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.settings import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL
+from trebuchet.model.shot_checks import checked_times, refuse_non_finite, slack_intervals
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
@@ -40,6 +42,8 @@ MAX_SHOT = 60.0  # s: a shot still in the trough or sling by then is refused
 #: Angles, rates and accelerations, in the row order of :meth:`Trajectory.angle_columns`.
 STATE_COLUMNS = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "psi_dd",
                  "phi_dd")
+#: The energies lost to friction, integrated with the motion where the engine has friction.
+LOST_COLUMNS = ("E_loss_pivot", "E_loss_hinge")
 
 
 @dataclass(frozen=True)
@@ -64,6 +68,7 @@ class Trajectory:
     release_state: dict[str, float] | None
     rtol: float
     method: str
+    shot: Any = None  # the C engine's shot (c_engine.CShot) where it integrated
 
     @property
     def t_end(self) -> float:
@@ -74,33 +79,29 @@ class Trajectory:
         return sum(p.nfev for p in self.phases)
 
     @property
+    def engine(self) -> str:
+        """What integrated the shot: ``"c"``, ``"numba"``, ``"python"`` or ``"scipy"``."""
+        if self.shot is not None:
+            return "c"
+        if self.method in ("DOP853", "c-DOP853", "numba-DOP853"):
+            return "numba"
+        return "python" if self.method == "python-DOP853" else "scipy"
+
+    @property
     def friction(self) -> bool:
         """True when the engine has friction: every phase's state then ends with the energies
         lost at pivot and hinge (in units of :func:`dynamics.energy_scale`)."""
         return has_friction(self.scene.engine)
-
-    def lost_energies(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``E_loss_pivot``, ``E_loss_hinge`` (J, since the trigger) at times ``t`` (s), from the
-        integrated states (zero without friction)."""
-        t = np.asarray(t, dtype=float)
-        out = np.zeros((2, t.size))
-        if self.friction:
-            which = np.minimum(np.searchsorted([p.t1 for p in self.phases], t, side="left"),
-                               len(self.phases) - 1)
-            for k, p in enumerate(self.phases):
-                sel = np.flatnonzero(which == k)
-                if sel.size:
-                    out[:, sel] = np.asarray(p.sol(t[sel])).reshape(-1, sel.size)[-2:]
-            out *= dyn.energy_scale(self.scene.engine, self.scene.g)
-        return out[0], out[1]
 
     def angles(self, t: np.ndarray) -> pd.DataFrame:
         """Angles, rates and accelerations at times ``t`` (s). At an event time the row takes
         the phase that ends there (left limit); ``t = 0`` is 0+ (the shot has started)."""
         return frame(self.angle_columns(t))
 
-    def angle_columns(self, t: np.ndarray) -> dict[str, np.ndarray]:
-        """:meth:`angles` as a dict of columns ``t, phase, theta … phi_dd``."""
+    def angle_columns(self, t: np.ndarray, lost: bool = False) -> dict[str, np.ndarray]:
+        """:meth:`angles` as a dict of columns ``t, phase, theta … phi_dd``; with ``lost`` and
+        an engine with friction, ``E_loss_pivot`` and ``E_loss_hinge`` (J, since the trigger,
+        from the integrated states) too."""
         t = np.asarray(t, dtype=float)
         if t.ndim != 1:
             raise ValueError("t_eval must be one-dimensional")
@@ -109,7 +110,8 @@ class Trajectory:
                                       "simulated shot); ask for a longer phase III with "
                                       "after_release=")
         n = t.size
-        block = np.full((len(STATE_COLUMNS), n), np.nan)
+        names = STATE_COLUMNS + (LOST_COLUMNS if lost and self.friction else ())
+        block = np.full((len(names), n), np.nan)
         phase = np.zeros(n, dtype=np.int64)
         # phase k takes (t1 of phase k-1, t1 of phase k]; the first also t <= its t1
         which = np.minimum(np.searchsorted([p.t1 for p in self.phases], t, side="left"),
@@ -121,17 +123,22 @@ class Trajectory:
             if sel[-1] - sel[0] + 1 == sel.size:  # sorted times: a slice, no gather
                 sel = slice(int(sel[0]), int(sel[-1]) + 1)
             phase[sel] = p.phase
-            block[:, sel] = self._phase_columns(p, t[sel])
-        return {"t": t, "phase": phase, **dict(zip(STATE_COLUMNS, block, strict=True))}
+            block[:, sel] = self._phase_columns(p, t[sel], len(names))
+        if len(names) > len(STATE_COLUMNS):
+            block[len(STATE_COLUMNS):] *= dyn.energy_scale(self.scene.engine, self.scene.g)
+        return {"t": t, "phase": phase, **dict(zip(names, block, strict=True))}
 
-    def _phase_columns(self, p: PhaseSolution, t: np.ndarray) -> np.ndarray:
-        """Rows of :data:`STATE_COLUMNS` of one phase at times ``t`` inside it."""
+    def _phase_columns(self, p: PhaseSolution, t: np.ndarray, rows: int) -> np.ndarray:
+        """The first ``rows`` of :data:`STATE_COLUMNS` and the lost energies' states of one
+        phase at times ``t`` inside it."""
         if hasattr(p.sol, "columns"):  # the compiled integrator evaluates them itself
-            out = np.empty((len(STATE_COLUMNS), t.size))
+            out = np.empty((rows, t.size))
             p.sol.columns(t, out)
             return out
         e, g, H = self.scene.engine, self.scene.g, self.scene.start.H
-        return np.array(dyn.phase_state(p.phase, p.sol(t), e, g, H))
+        y = p.sol(t)
+        extra = [y[-k] for k in range(rows - len(STATE_COLUMNS), 0, -1)]
+        return np.array([*dyn.phase_state(p.phase, y, e, g, H), *extra])
 
 
 def _rhs(scene: Scene, kind: int, lib: ModuleType = math) -> Callable:
@@ -162,10 +169,11 @@ def _event(scene: Scene, kind: int, par: float) -> Callable:
     return fun
 
 
-#: Integrators of :func:`simulate`'s ``method``: DOP853 compiled (default), the same method in
-#: pure Python, or any ``solve_ivp`` method prefixed ``scipy-`` (a bare scipy name also works).
-METHODS = ("DOP853", "python-DOP853", "scipy-DOP853", "scipy-RK45", "scipy-Radau",
-           "scipy-LSODA", "scipy-BDF", "scipy-RK23")
+#: Integrators of :func:`simulate`'s ``method``: DOP853 in the generated C (default; the numba
+#: kernel where no C compiler is), in C or numba by name, in pure Python, or any ``solve_ivp``
+#: method prefixed ``scipy-`` (a bare scipy name also works).
+METHODS = ("DOP853", "c-DOP853", "numba-DOP853", "python-DOP853", "scipy-DOP853", "scipy-RK45",
+           "scipy-Radau", "scipy-LSODA", "scipy-BDF", "scipy-RK23")
 
 
 def _solve(scene: Scene, kind: int, t0: float, t1: float, y0: Sequence[float],
@@ -182,8 +190,8 @@ def _solve(scene: Scene, kind: int, t0: float, t1: float, y0: Sequence[float],
     catch it on a first step (energy errors of 1e-7 of ΔU were seen)."""
     if first_step is not None:
         first_step = min(first_step, t1 - t0)
-    if method == "DOP853":
-        from trebuchet.model.shot_kernel import solve_phase
+    if method in ("DOP853", "c-DOP853", "numba-DOP853"):  # where the C did not run: numba
+        from trebuchet.model.kernel_phase import solve_phase
 
         return solve_phase(kind, scene.engine, scene.g, scene.start.H, t0, t1,
                            np.asarray(y0, dtype=float), rtol, first_step, tuple(events))
@@ -226,6 +234,9 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     if after_release is None:
         after_release = DEFAULT_DRY_FIRE if scene.projectile == "none" else DEFAULT_AFTER_RELEASE
     check_output_size(after_release=after_release)
+    if method in ("DOP853", "c-DOP853") and (traj := _integrate_c(scene, rtol, after_release,
+                                                                 method)):
+        return traj
     e, g, H, s = scene.engine, scene.g, scene.start.H, scene.start
     phases: list[PhaseSolution] = []
     events: dict[str, float] = {}
@@ -257,6 +268,24 @@ def integrate(scene: Scene, *, rtol: float | str = "default", method: str = "DOP
     events["end"] = t_end
     return Trajectory(scene=scene, phases=tuple(phases), events=events,
                       release_state=release_state, rtol=rtol, method=method)
+
+
+def _integrate_c(scene: Scene, rtol: float, after_release: float,
+                 method: str) -> Trajectory | None:
+    """The shot by the generated C (:mod:`~trebuchet.model.c_engine`); None where it cannot run
+    here (``"DOP853"``: the numba kernel runs) or refuses the shot (the numba kernel words it)."""
+    if method == "c-DOP853":
+        c_engine.require(method)
+    elif not c_engine.available():
+        return None
+    shot = c_engine.CShot.start(scene, rtol, after_release)
+    if shot is None:
+        return None
+    n = len(shot.kinds) - (after_release == 0.0 and len(shot.kinds) > 1)  # no phase III
+    phases = tuple(PhaseSolution(shot.kinds[k], shot.t0[k], shot.t1[k], c_engine.CPhase(shot, k),
+                                 shot.nfev[k]) for k in range(n))
+    return Trajectory(scene, phases, {**shot.events, "end": phases[-1].t1}, shot.release_state,
+                      rtol, method, shot)
 
 
 def _phase_trough(scene: Scene, beam: list[float], lost: list[float], rtol: float, method: str,
@@ -393,10 +422,13 @@ def simulate(scene: Scene | str | Path,
         :data:`ACCURACY`: ``"fast"`` (1e-6), ``"default"`` (1e-10: energy conserved to 1e-9 of
         ΔU), ``"precise"`` (1e-12). ``make bench`` measures what each costs and buys.
     method : str
-        ``"DOP853"`` (default): Dormand–Prince 8(5,3), compiled with numba (the first call after
-        installing compiles for ~20 s; ``make install`` does it). ``"python-DOP853"``: the same
-        steps in pure Python (~3× slower). ``"scipy-<name>"`` or a bare ``solve_ivp`` method
-        name (``"RK45"``, ``"Radau"``, …): ``scipy.integrate.solve_ivp``.
+        ``"DOP853"`` (default): Dormand–Prince 8(5,3) in the C that ``trebuchet fmu build``
+        generates from the model's formulas, run in process (:mod:`trebuchet.model.c_engine`;
+        built at install, ``make install``); where no C compiler is, the same method compiled
+        with numba. ``"c-DOP853"``, ``"numba-DOP853"``: one of those by name (the same steps,
+        equal to rounding). ``"python-DOP853"``: the same steps in pure Python.
+        ``"scipy-<name>"`` or a bare ``solve_ivp`` method name (``"RK45"``, ``"Radau"``, …):
+        ``scipy.integrate.solve_ivp``.
     after_release : float, optional
         Seconds of phase III (beam and counterweight after release) to simulate; default 0.5 s,
         or 1.5 s for a dry fire (which is phase III from the start).
@@ -413,26 +445,32 @@ def simulate(scene: Scene | str | Path,
     """
     scene = as_scene(scene, "simulate")
     rtol = resolve_rtol(rtol)
-    times = None if t_eval is None else _checked_times(t_eval)
+    times = None if t_eval is None else checked_times(t_eval)
     if times is None:
         check_output_size(dt, after_release)
     traj = integrate(scene, rtol=rtol, method=method, after_release=after_release)
     if times is None:
         check_output_size(dt, span=traj.t_end)
     times = default_times(traj, dt) if times is None else times
-    cols = load_columns(traj.angle_columns(times), scene, release_state=traj.release_state)
-    if traj.friction:
-        cols["E_loss_pivot"], cols["E_loss_hinge"] = traj.lost_energies(times)
-    _refuse_non_finite(cols, scene)
+    table = None if traj.shot is None else traj.shot.table(times)  # the C: every column
+    if table is None:
+        angles = traj.angle_columns(times, lost=True)
+        lost = {name: angles.pop(name) for name in LOST_COLUMNS if name in angles}
+        cols = load_columns(angles, scene, release_state=traj.release_state, lost=lost or None)
+    else:
+        cols = table.columns
+    if table is None or not table.finite:
+        refuse_non_finite(cols, scene)
     drift = float(np.max(np.abs(engine_energy(cols, traj)))) if times.size else 0.0
     delta_u = scene.delta_U
     slack = slack_intervals(cols)
-    run = frame(cols)
+    run = frame(cols) if table is None else block_frame(table.names, table.block,
+                                                        {1: table.phase})
     run.attrs["events"] = dict(traj.events)
     run.attrs["flight"] = (None if traj.release_state is None else flight_summary(
         traj.release_state, scene.g, scene.flight, scene.engine.m))
     run.attrs["diagnostics"] = {
-        "method": method, "rtol": rtol, "nfev": traj.nfev,
+        "method": method, "engine": traj.engine, "rtol": rtol, "nfev": traj.nfev,
         "energy_drift": drift, "energy_drift_rel": drift / delta_u, "delta_U": delta_u,
         "slack": slack, "advice": _advice(scene, traj),
     }
@@ -441,34 +479,6 @@ def simulate(scene: Scene | str | Path,
             f"{scene.source}: the sling goes slack (tension below zero) from t = {a:.4g} s to "
             f"{b:.4g} s: a rigid sling cannot push, so the loads there are fiction"))
     return run
-
-
-def _checked_times(t_eval: Sequence[float] | np.ndarray) -> np.ndarray:
-    """``t_eval`` as a one-dimensional array of finite floats (s), or a refusal saying why."""
-    try:
-        t = np.asarray(t_eval, dtype=float)
-    except (TypeError, ValueError):
-        raise TrebuchetInputError("t_eval must hold numbers (s after the trigger)") from None
-    if t.ndim != 1:
-        raise TrebuchetInputError(f"t_eval must be one-dimensional, got shape {t.shape}")
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size:
-        raise TrebuchetInputError(f"t_eval[{bad[0]}] = {t[bad[0]]}: times must be finite "
-                                  f"({bad.size} are not)")
-    if t.size > MAX_ROWS:
-        raise TrebuchetInputError(f"t_eval holds {t.size:,} times: at most {MAX_ROWS:,} output "
-                                  "rows in one run")
-    return t
-
-
-def slack_intervals(run: Mapping[str, Any]) -> list[tuple[float, float]]:
-    """Intervals (s) where the sling holding the projectile would have to push
-    (``sling_tension < 0``): the rigid-sling model is not valid there. ``run``: the loads, a
-    DataFrame or a dict of columns."""
-    slack = (np.asarray(run["phase"]) <= 2) & (np.asarray(run["sling_tension"]) < 0.0)
-    t = np.asarray(run["t"])
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], slack.astype(np.int8), [0]])))
-    return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
 def _advice(scene: Scene, traj: Trajectory) -> list[str]:
@@ -481,35 +491,3 @@ def _advice(scene: Scene, traj: Trajectory) -> list[str]:
             "if it barely swings, model it fixed to the beam ([engine] counterweight = "
             "\"fixed\"), or use method=\"Radau\"")
     return advice
-
-
-# Columns that are undefined by design: the sling after release, the projectile of a dry fire.
-_UNDEFINED_AFTER_RELEASE = ("phi", "phi_d", "phi_dd")
-_UNDEFINED_DRY_FIRE = ("x_m", "y_m", "vx_m", "vy_m")
-
-
-def _refuse_non_finite(cols: Mapping[str, np.ndarray], scene: Scene) -> None:
-    """Output holds no NaN or infinity except where a quantity does not exist (the sling's
-    angle after release, the projectile of a dry fire); anything else is refused."""
-    phase3 = cols["phase"] == 3
-    dry = scene.engine.m == 0.0
-    skip = _UNDEFINED_AFTER_RELEASE + (_UNDEFINED_DRY_FIRE if dry else ())
-    total = np.zeros(phase3.shape)  # NaN and ±inf survive a sum: one pass over the columns
-    for name, v in cols.items():
-        if v.dtype.kind == "f" and name not in skip:
-            total += v
-    for name in _UNDEFINED_AFTER_RELEASE:
-        total += np.where(phase3, 0.0, cols[name])
-    if np.isfinite(total).all():
-        return
-    for name, v in cols.items():
-        if v.dtype.kind != "f" or (dry and name in _UNDEFINED_DRY_FIRE):
-            continue
-        bad = ~np.isfinite(v)
-        if name in _UNDEFINED_AFTER_RELEASE:
-            bad &= ~phase3
-        if bad.any():
-            t_bad = float(cols["t"][np.flatnonzero(bad)[0]])
-            raise TrebuchetInputError(
-                f"{scene.source}: the model breaks down at t = {t_bad:.4g} s ({name} is not "
-                "finite); the scene is outside what the equations of motion can describe")

@@ -82,7 +82,9 @@ def test_the_tableau_is_scipys():
 @pytest.mark.parametrize("argv", [
     ["--help"], [], ["nonsense"], ["forces"], ["forces", "--help"], ["compare", "--help"],
     ["simulate", "s.toml", "-o", "x.csv", "--dt", "5"], ["sweep", "--accuracy", "sloppy"],
-    ["report"], ["paper", "--bogus"], ["fmu", "build", "--fmi", "5"],
+    ["report"], ["paper", "--bogus"], ["fmu", "build", "--fmi", "5"], ["design", "--help"],
+    ["design", "s.toml", "-o", "b.toml", "--vary", "engine.L4=3:8"],
+    ["sweep", "s.toml", "--grid", "engine.M=1", "-o", "x.csv", "--memory-budget", "lots"],
     ["forces", "x.csv", "--scene", "s.toml", "-o", "y.csv", "--form", "bent"],
 ], ids=lambda argv: " ".join(argv) or "(none)")
 def test_help_and_usage_errors_import_nothing_heavy(argv):

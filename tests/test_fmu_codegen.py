@@ -43,9 +43,12 @@ def formulas_lib(tmp_path_factory) -> ctypes.CDLL:
     folder = tmp_path_factory.mktemp("codegen")
     (folder / "treb_formulas.c").write_text(cg.generate_c())
     (folder / "treb_formulas.h").write_text(cg.generate_header())
+    (folder / "treb_rows.c").write_text(cg.generate_c(cg.ENGINE_FORMULAS, "treb_rows.h"))
+    (folder / "treb_rows.h").write_text(cg.generate_rows_header())
     lib = folder / "libtreb_formulas.so"
     subprocess.run(["gcc", "-O2", "-std=c99", "-Wall", "-Werror", "-shared", "-fPIC",
-                    str(folder / "treb_formulas.c"), "-o", str(lib), "-lm"], check=True)
+                    str(folder / "treb_formulas.c"), str(folder / "treb_rows.c"), "-o", str(lib),
+                    "-lm"], check=True)
     return ctypes.CDLL(str(lib))
 
 
@@ -58,7 +61,7 @@ def _sample(f: cg.Formula, rng: np.random.Generator) -> tuple[list[float], dict[
             q[_Q.index("m")] = 0.0
         x = {n: rng.uniform(*RANGES[n]) for n in f.inputs}
         trough = f.name.startswith(("rates1", "outputs1", "jacobian1", "lift_off",
-                                    "sling_upright", "friction_pieces1"))
+                                    "sling_upright", "friction_pieces1", "rows1"))
         if not trough:
             return q, x
         if abs((q[_Q.index("H")] + q[_Q.index("L1")] * math.sin(x["th"]))
@@ -66,7 +69,7 @@ def _sample(f: cg.Formula, rng: np.random.Generator) -> tuple[list[float], dict[
             return q, x
 
 
-@pytest.mark.parametrize("formula", cg.FORMULAS, ids=lambda f: f.name)
+@pytest.mark.parametrize("formula", cg.FORMULAS + cg.ENGINE_FORMULAS, ids=lambda f: f.name)
 def test_generated_c_equals_the_python(formulas_lib, formula):
     rng = np.random.default_rng(zlib.crc32(formula.name.encode()))
     fn = getattr(formulas_lib, f"treb_{formula.name}")

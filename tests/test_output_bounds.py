@@ -14,6 +14,7 @@ from trebuchet.cli import main
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.model import output_size as size
 from trebuchet.model import simulate as sim
+from trebuchet.model.shot_checks import checked_times
 
 from .conftest import HORSDAL
 
@@ -55,7 +56,7 @@ def test_the_bounds_themselves():
     with pytest.raises(TrebuchetInputError, match="step of at least 1.1e-06 s"):
         size.check_output_size(1e-6, span=1.0)  # 1,000,001 rows
     with pytest.raises(TrebuchetInputError, match="t_eval holds 1,000,001 times"):
-        sim._checked_times(np.zeros(size.MAX_ROWS + 1))
+        checked_times(np.zeros(size.MAX_ROWS + 1))
 
 
 @pytest.mark.parametrize("argv, flag", [

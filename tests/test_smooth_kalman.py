@@ -109,9 +109,7 @@ def test_error_covariance_under_the_smoothers_own_model_is_its_posterior(k):
     x0s, P0s = np.stack([x0, x0]), np.stack([P0, P0])
     filt = batch_kalman_filter(zz, vv, steps, lam, kick, r2, x0s, P0s, store=True)
     sm = backward_smoother(steps, filt, vv)
-    noise = (lam[None, :, None, None] * steps.Q0[:, None]
-             + kick[None, :, None, None] * steps.G[:, None])
-    err, cov_r = error_covariance(steps, filt, sm, vv, r2, noise, P0s, parts=True)
+    err, cov_r = error_covariance(steps, filt, sm, vv, r2, lam, kick, P0s, parts=True)
     for got, want in ((err, sm.P), (cov_r, sm.N)):
         # each element against its two sds (the filter's simple-form update leaves
         # round-off of about 1e-5 of the larger ones near the jerk kick, k = 4)
@@ -148,8 +146,7 @@ def test_error_covariance_of_noise_alone_matches_simulation():
     xs = smoothed_states(steps, many, np.broadcast_to(valid, z.shape))
     err = truth - xs
     seen = np.einsum("nbi,nbj->nij", err, err) / runs
-    noise = kick[None, :, None, None] * steps.G[:, None]
-    want = error_covariance(steps, filt, sm, ok, r2, noise, P0[None])[:, 0]
+    want = error_covariance(steps, filt, sm, ok, r2, np.zeros(1), kick, P0[None])[:, 0]
     for j in range(k):
         rel = seen[100:, j, j] / want[100:, j, j]
         assert np.all(np.abs(rel - 1.0) < 0.12), (j, rel.min(), rel.max())

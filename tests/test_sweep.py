@@ -273,3 +273,10 @@ def test_scheduler_without_dask_is_a_clear_error(horsdal, monkeypatch):
     monkeypatch.setitem(__import__("sys").modules, "dask.distributed", None)
     with pytest.raises(TrebuchetInputError, match="needs dask"):
         sweep(horsdal, {"engine.m": [90.0]}, executor="tcp://127.0.0.1:1", progress=False)
+
+
+def test_grid_too_large_refused():
+    with pytest.raises(TrebuchetInputError, match="count must lie between 1 and 1,000,000"):
+        parse_grid_values("1:2:100000000", where="--grid engine.M")
+    with pytest.raises(TrebuchetInputError, match="split it into several sweeps"):
+        grid_designs({"a.x": range(1000), "b.y": range(1001)})

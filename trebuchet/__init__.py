@@ -44,7 +44,7 @@ if TYPE_CHECKING:
 __all__ = [
     "Scene", "Engine", "Start", "Release", "simulate", "forces", "read_log", "smooth",
     "reconstruct", "compare", "TrebuchetInputError", "TrebuchetDataWarning", "ModelValidityWarning",
-    "__version__",
+    "__version__", "design",
 ]
 
 _LAZY = {
@@ -58,6 +58,7 @@ _LAZY = {
     "smooth": ("trebuchet.ingest.smoothing.smooth", "smooth"),
     "reconstruct": ("trebuchet.ingest.reconstruct", "reconstruct"),
     "compare": ("trebuchet.ingest.compare", "compare"),
+    "design": ("trebuchet.model.design", "design"),
 }
 
 

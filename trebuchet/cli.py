@@ -44,6 +44,7 @@ ROOMS = (
     "trebuchet.model.cli",
     "trebuchet.report.report_cli",
     "trebuchet.model.sweep_cli",
+    "trebuchet.model.design_cli",
     "trebuchet.ingest.cli",
     "trebuchet.report.compare_cli",
     "trebuchet.fmu.cli",

@@ -26,13 +26,15 @@ import functools
 import os
 import shlex
 import sys
+import unicodedata
 import warnings
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 __all__ = ["TrebuchetInputError", "TrebuchetDataWarning", "ModelValidityWarning", "Option",
-           "check_choice", "command_line", "cli_command", "on_command_line", "warn_at_caller"]
+           "check_choice", "command_line", "cli_command", "on_command_line", "warn_at_caller",
+           "printable"]
 
 _INTERFACE: contextvars.ContextVar[str] = contextvars.ContextVar("trebuchet_interface",
                                                                  default="python")
@@ -137,6 +139,8 @@ class TrebuchetInputError(ValueError):
     """
 
     def __init__(self, message: str, *, where: str | None = None) -> None:
+        message = printable(message)
+        where = None if where is None else printable(where)
         self.message, self.where = message, where
         super().__init__(f"{where}: {message}" if where else message)
 
@@ -164,9 +168,23 @@ _PACKAGE_DIRS = tuple(os.path.dirname(os.path.dirname(os.path.abspath(__file__))
                       for d in ("trebuchet", "model", "ingest", "fmu", "data_samples"))
 
 
+def printable(text: str) -> str:
+    """``text`` with every control character (C0, DEL, C1: ESC, BEL, newline, ...) and every
+    invisible format character (bidirectional overrides, zero-width marks) written as an
+    escape (``\\x1b``, ``\\u202e``): a name read from a user's file cannot clear, recolour
+    or retitle the terminal a message is printed on, nor split the message's one line."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() or c == " " or unicodedata.category(c) not in
+                   ("Cc", "Cf", "Zl", "Zp") else repr(c)[1:-1] for c in text)
+
+
 def warn_at_caller(message: str | Warning, category: type[Warning] = UserWarning) -> None:
     """``warnings.warn`` pointing at the first line outside this package (the user's call),
-    however deep inside the package it is issued (Python 3.12's ``skip_file_prefixes``)."""
+    however deep inside the package it is issued (Python 3.12's ``skip_file_prefixes``);
+    control characters in a text message are escaped (:func:`printable`)."""
+    if isinstance(message, str):
+        message = printable(message)
     frame, level = sys._getframe(1), 2
     while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(
             _PACKAGE_DIRS):

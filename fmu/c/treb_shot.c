@@ -316,8 +316,9 @@ static void dop_start(TrebDop *d, int kind, int n, const TrebScene *sc, double t
     d->friction = kind != TREB_DRAG_FLIGHT && sc->friction;
     memcpy(d->q, sc->q, sizeof d->q);
     d->k_drag = sc->k_drag;
-    d->rtol = kind == TREB_DRAG_FLIGHT ? FLIGHT_RTOL : RTOL;
-    d->atol = kind == TREB_DRAG_FLIGHT ? FLIGHT_ATOL : RTOL * 1e-2;
+    double rtol = sc->rtol > 0.0 ? sc->rtol : RTOL;
+    d->rtol = kind == TREB_DRAG_FLIGHT ? FLIGHT_RTOL : rtol;
+    d->atol = kind == TREB_DRAG_FLIGHT ? FLIGHT_ATOL : rtol * 1e-2;
     d->t = t0;
     d->t_bound = t_bound;
     memcpy(d->y, y0, n * sizeof(double));
@@ -493,6 +494,7 @@ static int run_phase(TrebShot *s, int kind, double t0, double t1, const double *
     s->t0[k] = t0;
     s->t1[k] = pe->t_end;
     s->first[k] = first;
+    s->nfev[k] = d.nfev;
     return 0;
 }
 
@@ -548,8 +550,8 @@ static int sling_and_after(TrebShot *s, char *msg)
     s->t0[k] = pe.t_end;
     s->t1[k] = INFINITY;
     s->first[k] = s->steps.n;
-    dop_start(&s->open, 3, treb_state_size(sc, 3), sc, pe.t_end, beam, 1e300, pe.last_full, 0,
-              NULL, NULL);
+    dop_start(&s->open, 3, treb_state_size(sc, 3), sc, pe.t_end, beam,
+              sc->bounded ? pe.t_end + sc->after_release : 1e300, pe.last_full, 0, NULL, NULL);
     s->flight_started = 0;
     s->flight.n = 0;
     return 0;
@@ -567,7 +569,8 @@ int treb_shot_start(TrebShot *s, const TrebScene *sc, char *msg)
         s->t0[k] = 0.0;
         s->t1[k] = INFINITY;
         s->first[k] = 0;
-        dop_start(&s->open, 3, treb_state_size(sc, 3), sc, 0.0, beam, 1e300, 0.0, 0, NULL, NULL);
+        dop_start(&s->open, 3, treb_state_size(sc, 3), sc, 0.0, beam,
+                  sc->bounded ? sc->after_release : 1e300, 0.0, 0, NULL, NULL);
         return 0;
     }
     if (sc->projectile == 1) {
@@ -686,23 +689,26 @@ void treb_flight_at(TrebShot *s, double t, double *out)
     treb_flight_energy(s->sc.q, x, out + 4);
 }
 
-int treb_shot_outputs(TrebShot *s, double t, int *phase, double *out, char *msg)
+/* The state at t of the phase of index k (k < 0: the phase holding t, the one that ends there
+ * at an event) into y; returns that index, or -1 (-2: out of memory) with msg. */
+int treb_shot_state(TrebShot *s, int k, double t, double *y, char *msg)
 {
-    int k = 0;
-    while (k < s->n_phases - 1 && t > s->t1[k]) k++;
+    if (k < 0) {
+        k = 0;
+        while (k < s->n_phases - 1 && t > s->t1[k]) k++;
+    }
     int last = s->n_phases - 1;
-    if (k == last) {  /* the open phase: integrate on to t */
+    if (k == last) {  /* the open phase: integrate on to t (or to its bound) */
         TrebStep st;
         double te, ye[TREB_MAXN];
         int which;
-        while (s->open.t < t) {
+        while (s->open.t < t && s->open.t < s->open.t_bound) {
             if (dop_step(&s->open, &st, &te, ye, &which) == STEP_FAILED)
                 return failed(msg, PHASE_NAME[3]);
             if (push(&s->steps, &st)) return -2;
         }
     }
     int count = (k == last ? s->steps.n : s->first[k + 1]) - s->first[k];
-    double y[TREB_MAXN];
     int n = treb_state_size(&s->sc, s->phase[k]);
     if (count == 0) {
         memcpy(y, s->open.y, n * sizeof(double));
@@ -711,6 +717,14 @@ int treb_shot_outputs(TrebShot *s, double t, int *phase, double *out, char *msg)
         const TrebStep *st = &s->steps.data[j];
         interp(st, n, (t - st->t) / st->h, y);
     }
+    return k;
+}
+
+int treb_shot_outputs(TrebShot *s, double t, int *phase, double *out, char *msg)
+{
+    double y[TREB_MAXN];
+    int k = treb_shot_state(s, -1, t, y, msg);
+    if (k < 0) return k;
     *phase = s->phase[k];
     treb_outputs_of(&s->sc, *phase, y, out);
     if (*phase == 3 && s->sc.projectile != 3) {

@@ -39,6 +39,10 @@ typedef struct {
     double diameter, drag_coefficient, air_density;
     double rest[3];   /* energies at rest, J */
     double k_drag;    /* 1/m */
+    /* The in-process engine's (treb_batch.c); 0 in the FMU: tolerance 1e-10, phase III open */
+    double rtol;           /* integrator tolerance (atol = rtol / 100); 0: 1e-10 */
+    int bounded;           /* phase III ends after_release s after the release (dry fire: 0) */
+    double after_release;  /* s */
 } TrebScene;
 
 /* One accepted step: start time, size, start state and the dense output's coefficients. */
@@ -84,12 +88,14 @@ typedef struct {
     TrebSteps flight;
     TrebDop flight_dop;
     int flight_started;
+    long nfev[3];            /* right-hand sides of each closed phase (the open one: open.nfev) */
 } TrebShot;
 
 int treb_scene_rest(TrebScene *sc);
 void treb_shot_init_empty(TrebShot *s);
 int treb_shot_start(TrebShot *s, const TrebScene *sc, char *msg);
 int treb_shot_outputs(TrebShot *s, double t, int *phase, double *out, char *msg);
+int treb_shot_state(TrebShot *s, int k, double t, double *y, char *msg);
 int treb_shot_command(TrebShot *s, double t_c, char *msg);
 void treb_shot_free(TrebShot *s);
 int treb_shot_copy(TrebShot *dst, const TrebShot *src);

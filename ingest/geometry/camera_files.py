@@ -1,5 +1,8 @@
-"""The text formats of camera files (:mod:`.user_calibration`): OpenCV's FileStorage XML and
-the block YAML of OpenCV, ROS camera_info and Kalibr files, read into plain dicts."""
+"""The block YAML and the XML of camera files, read without a YAML or XML library's
+general machinery: OpenCV's FileStorage (YAML ``%YAML:1.0`` with ``!!opencv-matrix``, XML
+``<opencv_storage>``), ROS's camera_info and Kalibr's camchain YAML. Each gives a plain dict
+that :mod:`.user_calibration` reads its lens and points from.
+"""
 
 from __future__ import annotations
 

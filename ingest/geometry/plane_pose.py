@@ -1,12 +1,14 @@
 """Where the engine's plane stands before a camera of known lens, from the engine's own
-geometry (:mod:`.user_calibration`'s camera files fix the lens, not the plane's pose): the
-virtual turn of the camera that makes the rectified image keep the engine's lengths, and
-the roll that makes the counterweight hang plumb at rest."""
+geometry (:func:`plane_from_engine`): the turn of the camera that keeps the engine's ties at
+their lengths and its beam straight, and the roll that makes the counterweight hang plumb at
+rest. Used with a camera file of :mod:`.user_calibration`, which fixes the lens only.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -15,7 +17,16 @@ from trebuchet.errors import TrebuchetInputError
 from trebuchet.model.scene import Engine
 
 from .camera import rotation_from_angles
-from .user_calibration import Lens
+
+
+class Lens(Protocol):
+    """What the fit needs of :class:`.user_calibration.Lens`: the camera matrix K (px) and
+    the focal length (px) of the lens-free pixels."""
+
+    matrix: np.ndarray
+
+    @property
+    def focal(self) -> float: ...
 
 __all__ = ["PlanePose", "plane_from_engine", "rectified", "TIES"]
 

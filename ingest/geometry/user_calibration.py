@@ -21,9 +21,8 @@ Two kinds, decided from the file's content (never its extension):
   with OpenCV's keys. It fixes the lens: the tracked pixels are undistorted
   (:func:`undistort_opencv`, OpenCV's ``undistortPoints`` model: k1, k2, p1, p2, k3, k4,
   k5, k6). It does **not** fix where the engine's plane stands before the camera (tilt,
-  roll, scale). With the scene known, :func:`.plane_pose.plane_from_engine` finds that
-  from the engine's own geometry (:class:`.plane_pose.PlanePose`); without it the angles
-  keep the tilt's error.
+  roll, scale). With the scene known, :func:`plane_from_engine` finds that from the
+  engine's own geometry (:class:`PlanePose`); without it the angles keep the tilt's error.
 
 Pixels here are the readers' (``y`` up: the row negated); the calibration files' are
 OpenCV's (rows down) and are turned on reading.
@@ -44,12 +43,15 @@ from pathlib import Path
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.readers.table import DECIMAL
+from trebuchet.user_files import read_user_file
 
 from .camera import apply_homography, homography_from_points
 from .camera_files import camera_yaml, opencv_xml
+from .plane_pose import PlanePose, plane_from_engine, rectified
 
 __all__ = ["Lens", "UserCalibration", "read_calibration", "undistort_opencv",
-           "RESIDUAL_WARN_PX"]
+           "RESIDUAL_WARN_PX", "PlanePose", "plane_from_engine", "rectified"]
 
 #: A reprojection residual (px, rms per coordinate, corrected for the homography's eight
 #: degrees of freedom) beyond which the known points warn: a mistyped point, or a lens
@@ -58,6 +60,10 @@ RESIDUAL_WARN_PX = 2.0
 #: OpenCV's distortion coefficients in their order; more (thin prism, tilted sensor) are
 #: not modelled and refused.
 OPENCV_COEFFICIENTS = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
+#: Bytes of a calibration file (a camera file or a list of points is a few kB).
+MAX_CALIBRATION_BYTES = 1 << 20
+#: Largest magnitude of any number of a calibration file (px, m, lens coefficients).
+MAX_MAGNITUDE = 1e9
 #: Length units of the plane points' header, in m.
 PLANE_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 
@@ -168,12 +174,15 @@ def read_calibration(path: str | Path) -> UserCalibration:
     file, the key or row, and what is wrong, for anything else."""
     p = Path(path)
     try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise TrebuchetInputError(f"calibration file {p}: cannot be read ({exc.strerror})"
-                                  ) from None
+        raw = read_user_file(p, "calibration file", MAX_CALIBRATION_BYTES)
+    except TrebuchetInputError as exc:
+        problem = "cannot be read (no such file)" if exc.message == "no such file" else (
+            exc.message)
+        raise TrebuchetInputError(f"calibration file {p}: {problem}") from None
     try:
         text = raw.decode("utf-8-sig")
+        if "\x00" in text:
+            raise UnicodeDecodeError("utf-8", raw, 0, 1, "NUL")
     except UnicodeDecodeError:
         raise TrebuchetInputError(f"calibration file {p.name}: not a text file (a camera "
                                   "file is YAML, XML or JSON; known points CSV or TOML)"
@@ -182,6 +191,9 @@ def read_calibration(path: str | Path) -> UserCalibration:
         cal = _parse(text, str(p))
     except TrebuchetInputError as exc:
         raise exc.in_file(p.name) from None
+    except RecursionError:
+        raise TrebuchetInputError(f"{p.name}: nested more deeply than any calibration file "
+                                  "is (lists or tables within each other)") from None
     return cal
 
 
@@ -196,6 +208,8 @@ def _parse(text: str, source: str) -> UserCalibration:
         except json.JSONDecodeError as exc:
             raise TrebuchetInputError.at(f"line {exc.lineno}", f"not valid JSON ({exc.msg})"
                                          ) from None
+        except ValueError as exc:  # an integer of more than 4300 digits
+            raise TrebuchetInputError(f"not valid JSON ({exc})") from None
         return _from_mapping(data, source, "JSON")
     if head.startswith("%YAML") or "!!opencv-matrix" in text:
         return _from_mapping(camera_yaml(text), source, "OpenCV FileStorage YAML")
@@ -203,7 +217,7 @@ def _parse(text: str, source: str) -> UserCalibration:
             r"^\s*camera_matrix\s*=", text, re.MULTILINE):
         try:
             data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
+        except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
             raise TrebuchetInputError(f"not valid TOML ({exc})") from None
         return _from_mapping(data, source, "TOML")
     if re.search(r"^\s*(camera_matrix|cam\d+|intrinsics)\s*:", text, re.MULTILINE):
@@ -247,6 +261,9 @@ def _with_points(source: str, layout: str, plane: np.ndarray, image_rows_down: n
     image = image_rows_down * [1.0, -1.0]
     flat = lens.undistort(image) if lens is not None else image
     Hm = homography_from_points(plane, flat)
+    if not np.isfinite(Hm).all() or np.linalg.cond(Hm) > 1e12:
+        raise TrebuchetInputError("the image points do not fix a homography (three or more "
+                                  "on one line in the picture, or the same point twice?)")
     n = plane.shape[0]
     residual = None
     if n >= 5:
@@ -257,16 +274,31 @@ def _with_points(source: str, layout: str, plane: np.ndarray, image_rows_down: n
 
 
 def _number(value: object, key: str) -> float:
-    """A finite number, else an error naming ``key``."""
+    """A finite number of at most :data:`MAX_MAGNITUDE`, else an error naming ``key``; text
+    is a number only in ASCII decimals (as CSV tools read it)."""
     if isinstance(value, bool) or not isinstance(value, int | float | str):
-        raise TrebuchetInputError(f"key {key}: {value!r} is not a number")
+        raise TrebuchetInputError(f"key {key}: {_shown(value)} is not a number")
+    if isinstance(value, str) and not DECIMAL.fullmatch(value.strip()):
+        raise TrebuchetInputError(f"key {key}: {_shown(value)} is not a number")
     try:
         x = float(value)
-    except ValueError:
-        raise TrebuchetInputError(f"key {key}: {value!r} is not a number") from None
+    except (ValueError, OverflowError):
+        raise TrebuchetInputError(f"key {key}: {_shown(value)} is not a finite number"
+                                  ) from None
     if not math.isfinite(x):
-        raise TrebuchetInputError(f"key {key}: {value!r} is not a finite number")
+        raise TrebuchetInputError(f"key {key}: {_shown(value)} is not a finite number")
+    if abs(x) > MAX_MAGNITUDE:
+        raise TrebuchetInputError(f"key {key}: {x:.4g} is beyond {MAX_MAGNITUDE:.0e}, which no "
+                                  "pixel, length or lens coefficient reaches")
     return x
+
+
+def _shown(value: object) -> str:
+    """A value for a message: its repr, cut to 40 characters."""
+    if isinstance(value, list | tuple | Mapping):
+        return f"a {type(value).__name__} of {len(value)}"
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _numbers(value: object, key: str) -> np.ndarray:
@@ -285,8 +317,12 @@ def _numbers(value: object, key: str) -> np.ndarray:
     if isinstance(value, list | tuple):
         flat: list[float] = []
         for v in value:
-            flat.extend(_numbers(v, key).tolist() if isinstance(v, list | tuple)
-                        else [_number(v, key)])
+            if isinstance(v, list | tuple):  # a matrix's rows; deeper is no camera file's
+                if any(isinstance(w, list | tuple | Mapping) for w in v):
+                    raise TrebuchetInputError(f"key {key}: lists nested more than two deep")
+                flat.extend(_number(w, key) for w in v)
+            else:
+                flat.append(_number(v, key))
         return np.array(flat, dtype=float)
     return np.array([_number(value, key)])
 
@@ -398,8 +434,11 @@ def _enough(plane: np.ndarray, image: np.ndarray) -> tuple[np.ndarray, np.ndarra
 def _points_csv(text: str, source: str) -> UserCalibration:
     """A CSV of known points: columns ``u``, ``v`` (px) and ``x``, ``y`` (m, or the unit
     in the header: cm, mm); other columns (a name) ignored; ``,`` or ``;`` or tab."""
-    dialect = csv.Sniffer().sniff(text.splitlines()[0], delimiters=",;\t")
-    rows = list(csv.reader(io.StringIO(text), dialect))
+    try:
+        dialect = csv.Sniffer().sniff(text.splitlines()[0], delimiters=",;\t")
+        rows = list(csv.reader(io.StringIO(text), dialect))
+    except csv.Error as exc:
+        raise TrebuchetInputError(f"not a table of known points ({exc})") from None
     numbered = [(i, r) for i, r in enumerate(rows, 1) if any(c.strip() for c in r)]
     header_line, header = numbered[0]
     index, scale = {}, {}
@@ -424,14 +463,12 @@ def _points_csv(text: str, source: str) -> UserCalibration:
         vals = []
         for k in "uvxy":
             cell = row[index[k]].strip() if index[k] < len(row) else ""
+            text_cell = cell.replace(",", ".") if dialect.delimiter != "," else cell
             try:
-                v = float(cell.replace(",", ".")) if dialect.delimiter != "," else float(cell)
-            except ValueError:
+                v = _number(text_cell, k)
+            except TrebuchetInputError as exc:
                 raise TrebuchetInputError.at(f"line {line}, column {k}",
-                                             f"{cell!r} is not a number") from None
-            if not math.isfinite(v):
-                raise TrebuchetInputError.at(f"line {line}, column {k}", f"{cell!r} is not "
-                                             "a finite number")
+                                             exc.message.split(": ", 1)[-1]) from None
             vals.append(v * scale[k])
         image.append(vals[:2])
         plane.append(vals[2:])

@@ -2,13 +2,16 @@
 
 The filter is the one of filterpy's ``KalmanFilter.batch_filter`` (predict, then
 update, every step) and ``rts_smoother``, written for a scalar measurement of the
-first state component and batched in numpy over ``B`` series that share the time
-steps (several angles, several candidate process noises). The filter's loop over the
-frames is compiled (:mod:`.kernel`); the backward passes are Python loops over
-the ``n`` time steps, each step a handful of numpy operations on ``(B, k, k)`` arrays,
-so their cost hardly grows with ``B``. docs/background.md ("Differentiating video angles"): filterpy
-runs about 30k samples/s; both agree to round-off (``tests/test_smooth_kalman.py``
-checks it against filterpy).
+first state component and batched over ``B`` series that share the time steps (several
+angles, several candidate process noises). Every pass over the frames is compiled
+(numba): the filter (:mod:`.kernel`) and the backward recursions, the means-only refilter,
+the error covariance and the model's draws (:mod:`.passes`), each a loop over the frames
+holding one step's ``k × k`` matrices, so that time and memory grow linearly with the log
+and no ``(n, B, k, k)`` array of a whole noise grid is built. Their numpy forms are kept in
+:mod:`.reference` (``numpy_passes()`` switches every function here to them; tests compare
+both). docs/background.md ("Differentiating video angles"): filterpy runs about 30k
+samples/s; both agree to round-off (``tests/test_smooth_kalman.py`` checks it against
+filterpy).
 
 State of one series: ``[angle, rate, acceleration]`` (``k = 3``, constant
 acceleration, white jerk) or ``[angle, rate, acceleration, jerk]`` (``k = 4``,
@@ -16,6 +19,11 @@ constant jerk, white snap). Units are whatever the caller uses; the smoother in
 :mod:`trebuchet.ingest.smoothing.smooth` works in frames (time divided by the median frame
 interval) and measurement-noise units (R = 1), which keeps the covariances well
 conditioned.
+
+Series and their data: ``src`` (B,) maps series ``b`` to the row ``src[b]`` of the
+measurements ``z``, ``valid`` (and, for the likelihood, ``weight``) it reads, and of a
+``shape`` (A, n) of the process noise (``λ_b shape[src[b], i]`` at step ``i``): a grid of
+noise candidates shares one copy of each angle's data.
 
 References
 ----------
@@ -30,130 +38,99 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from math import factorial
-
 import numpy as np
 
-from trebuchet.ingest.kalman.kernel import filter_steps
+from trebuchet.ingest.kalman import reference
+from trebuchet.ingest.kalman.kernel import filter_steps, noisy_steps
+from trebuchet.ingest.kalman.passes import (
+    error_cov_pass,
+    kick_responses,
+    quad_pass,
+    refilter_pass,
+    simulate_chunk,
+    smoother_pass,
+    states_pass,
+    sums_pass,
+)
+from trebuchet.ingest.kalman.steps import (
+    FilterResult,
+    LoglikSums,
+    SmootherResult,
+    StepModel,
+    matrix_root,
+    polynomial_transition,
+    white_noise_covariance,
+)
+
+__all__ = ["polynomial_transition", "white_noise_covariance", "StepModel", "FilterResult",
+           "SmootherResult", "LoglikSums", "batch_kalman_filter", "filter_loglik",
+           "backward_smoother", "smoothed_states", "backward_sums", "refiltered",
+           "resmoothed", "residual_innovations", "residual_quadratics", "simulated_model_runs",
+           "error_covariance"]
+
+#: Rows of the model's draws made at once (:func:`simulated_model_runs`).
+DRAW_CHUNK = 512
 
 
-def polynomial_transition(k: int, dt: np.ndarray) -> np.ndarray:
-    """Transition matrices ``F(dt)`` of a ``k``-state polynomial (Taylor) model.
-
-    ``F[i, j] = dt**(j - i) / (j - i)!`` for ``j >= i``. ``dt`` in the caller's time
-    unit, shape ``(n,)``; returns ``(n, k, k)``.
-    """
-    dt = np.asarray(dt, dtype=float)
-    F = np.zeros(dt.shape + (k, k))
-    for i in range(k):
-        for j in range(i, k):
-            F[..., i, j] = dt ** (j - i) / factorial(j - i)
-    return F
+def _f(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def white_noise_covariance(k: int, dt: np.ndarray) -> np.ndarray:
-    """Exact discretised covariance of white noise (unit spectral density) on the last state.
-
-    Identical to filterpy's ``Q_continuous_white_noise(k, dt, 1.0)`` (k = 2, 3, 4), for an
-    array of ``dt``: ``Q[i, j] = dt**(2k-1-i-j) / ((k-1-i)! (k-1-j)! (2k-1-i-j))``.
-    Returns ``(n, k, k)``; multiply by the spectral density ``q`` (rad²/s⁵ for k = 3).
-    """
-    dt = np.asarray(dt, dtype=float)
-    Q = np.empty(dt.shape + (k, k))
-    for i in range(k):
-        for j in range(k):
-            a, b = k - 1 - i, k - 1 - j
-            p = a + b + 1
-            Q[..., i, j] = dt**p / (factorial(a) * factorial(b) * p)
-    return Q
+def _series(src: np.ndarray | None, B: int) -> np.ndarray:
+    return np.arange(B, dtype=np.int64) if src is None else np.ascontiguousarray(src, np.int64)
 
 
-@dataclass(frozen=True)
-class StepModel:
-    """Per-step matrices shared by all series of a batch (``n`` steps, ``k`` states).
-
-    Step ``i`` predicts from the time of frame ``i-1`` to frame ``i`` (step 0 is the prior
-    at frame 0: ``F[0] = I``, ``Q0[0] = 0``). Process noise of series ``b`` at step ``i`` is
-    ``lam[b] * Q0[i] + kick[b] * G[i]``: ``Q0`` the unit white-noise covariance (zero
-    at rest), ``G`` the unit covariance of a jump (a "kick") in acceleration at an event
-    between the frames, carried to frame ``i``.
-    """
-
-    F: np.ndarray  # (n, k, k)
-    Q0: np.ndarray  # (n, k, k)
-    G: np.ndarray  # (n, k, k)
-
-    @property
-    def n(self) -> int:
-        return self.F.shape[0]
-
-    @property
-    def k(self) -> int:
-        return self.F.shape[-1]
-
-    def stretch(self, lo: int, hi: int) -> StepModel:
-        """Steps ``lo .. hi-1`` (to run the filter on from the filtered state at ``lo-1``)."""
-        return StepModel(self.F[lo:hi], self.Q0[lo:hi], self.G[lo:hi])
+def _noise_spec(lam: np.ndarray, src: np.ndarray, shape: np.ndarray | None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``lam`` (B,) or (B, n), and ``shape`` (A, n) with series ``b`` on row ``src[b]``, as
+    the kernel's factor (B,), rows (S, n or 1) and row index (B,) (exact: a factor 1.0)."""
+    lam = np.asarray(lam, dtype=float)
+    B = src.size
+    if shape is not None:
+        return _f(lam), _f(shape), src
+    if lam.ndim == 2:
+        return np.ones(B), _f(lam), np.arange(B, dtype=np.int64)
+    return _f(lam), np.ones((1, 1)), np.zeros(B, dtype=np.int64)
 
 
-@dataclass(frozen=True)
-class FilterResult:
-    """Output of :func:`batch_kalman_filter`, histories indexed ``[step, series, ...]``.
-
-    ``S`` the innovation variance and ``nu`` the innovation (0 at gaps) at every step;
-    with ``store=True`` also ``xp``/``Pp`` (state and covariance after the prediction)
-    and ``gain`` (Kalman gain, zero at gaps), which :func:`backward_smoother` needs.
-    ``x_end``/``P_end``: the filtered state (B, k) and covariance (B, k, k) after the last
-    step, to continue the filter on a following stretch of steps.
-    """
-
-    S: np.ndarray
-    nu: np.ndarray
-    xp: np.ndarray | None = None
-    Pp: np.ndarray | None = None
-    gain: np.ndarray | None = None
-    x_end: np.ndarray | None = None
-    P_end: np.ndarray | None = None
-
-    def series(self, index: np.ndarray) -> FilterResult:
-        """The result for the series ``index`` only (e.g. one grid point per angle)."""
-        def pick(a: np.ndarray | None, axis: int) -> np.ndarray | None:
-            return None if a is None else np.take(a, index, axis=axis)
-
-        return FilterResult(pick(self.S, 1), pick(self.nu, 1), pick(self.xp, 1),
-                            pick(self.Pp, 1), pick(self.gain, 1), pick(self.x_end, 0),
-                            pick(self.P_end, 0))
-
-    def loglik_sums(self, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``Σ w log S``, ``Σ w ν²/S`` and ``Σ w`` per series; ``weight`` (B, n), 0 at gaps."""
-        w = np.asarray(weight, float).T
-        ok = self.S > 0.0  # lost positive definiteness (round-off at extreme λ): NaN sums
-        log_s = np.log(np.where(ok, self.S, 1.0)) + np.where(ok, 0.0, np.nan)
-        return (
-            (w * log_s).sum(axis=0),
-            (w * self.nu**2 / self.S).sum(axis=0),
-            w.sum(axis=0),
-        )
+def _expanded(z: np.ndarray, valid: np.ndarray, lam: np.ndarray, src: np.ndarray | None,
+              shape: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The measurements, mask and process noise one row per series (the numpy forms')."""
+    lam = np.asarray(lam, dtype=float)
+    if shape is not None:
+        shape = np.asarray(shape, float)
+        lam = lam[:, None] * (shape if src is None else shape[src])
+    if src is None:
+        return z, valid, lam
+    return np.asarray(z)[src], np.asarray(valid)[src], lam
 
 
-def _rest_steps(steps: StepModel, has_noise: list[bool], x: np.ndarray, P: np.ndarray) -> int:
-    """Number of leading steps with no process noise and no kick while only the first
-    state is uncertain and set (``x0`` and ``P0`` zero elsewhere, ``P0[0, 0] > 0``) and
-    every transition keeps the first state as it is (``F e1 = e1``): a rest before the
-    trigger, where the filter is a running mean."""
-    k = steps.k
-    P00 = P[:, 0]
-    rest_x = np.all(x[:, 1:] == 0.0) if k > 1 else True
-    rest_P = np.all(P[:, 1:] == 0.0) and np.all(P00 > 0.0)
-    if not (rest_x and rest_P):
-        return 0
-    e1 = np.zeros(k)
-    e1[0] = 1.0
-    keeps = np.all(steps.F[:, :, 0] == e1, axis=1)
-    quiet = keeps & ~np.asarray(has_noise, bool)
-    stop = np.flatnonzero(~quiet)
-    return int(stop[0]) if stop.size else steps.n
+def _run_filter(z, valid, steps, lam, kick, r2, x0, P0, src, shape, store, hist,
+                weight):  # noqa: ANN001, ANN202
+    """The compiled filter; returns (x_end, P_end, S, nu, xp, Pp, gain, sums)."""
+    n, k = steps.n, steps.k
+    x = np.array(x0, dtype=np.float64, order="C")
+    P = np.array(P0, dtype=np.float64, order="C")
+    B = x.shape[0]
+    src = _series(src, B)
+    lam_v, rows, rows_src = _noise_spec(lam, src, shape)
+    kick = _f(np.broadcast_to(np.asarray(kick, float), (B,)))
+    r2 = _f(np.broadcast_to(np.asarray(r2, float), (B,)))
+    F, Q0, G = _f(steps.F), _f(steps.Q0), _f(steps.G)
+    has_noise = noisy_steps(Q0, G, lam_v, rows, rows_src, kick)
+    moves = ~np.all(F == np.eye(k), axis=(1, 2))
+    first = reference._rest_steps(steps, has_noise, x, P.reshape(B, k * k))
+    S = np.empty((n, B)) if hist else np.empty((0, 0))
+    nu = np.empty((n, B)) if hist else np.empty((0, 0))
+    sums = np.zeros((B, 3)) if weight is not None else np.zeros((0, 3))
+    w = _f(weight) if weight is not None else np.zeros((0, 0))
+    xp = np.empty((n, B, k)) if store else np.empty((0, 0, 0))
+    Pp = np.empty((n, B, k, k)) if store else np.empty((0, 0, 0, 0))
+    gain = np.empty((n, B, k)) if store else np.empty((0, 0, 0))
+    filter_steps(int(first), F, Q0, G, moves, has_noise, lam_v, rows, rows_src, kick, src,
+                 np.ascontiguousarray(valid, dtype=np.bool_), _f(z), r2, x, P, bool(hist),
+                 S, nu, w, sums, bool(store), xp, Pp, gain)
+    return x, P, S, nu, xp, Pp, gain, sums
 
 
 def batch_kalman_filter(
@@ -166,107 +143,66 @@ def batch_kalman_filter(
     x0: np.ndarray,
     P0: np.ndarray,
     store: bool = False,
+    *,
+    src: np.ndarray | None = None,
+    shape: np.ndarray | None = None,
 ) -> FilterResult:
     """Kalman filter (predict then update each step) for ``B`` scalar series at once.
 
     Parameters
     ----------
-    z : (B, n) measurements of the first state; values where ``valid`` is False are ignored.
-    valid : (B, n) bool, False for a gap (predict through, no update).
+    z : (B, n) measurements of the first state (or (A, n) with ``src``); values where
+        ``valid`` is False are ignored.
+    valid : (B, n) bool (or (A, n) with ``src``), False for a gap (predict through, no update).
     steps : per-step matrices, see :class:`StepModel`.
     lam : (B,) process-noise density, or (B, n) one per series and step (piecewise noise).
     kick, r2 : (B,) kick variance, measurement variance.
     x0, P0 : (B, k), (B, k, k) prior at frame 0, before the step-0 prediction.
     store : keep the histories needed by :func:`backward_smoother`.
+    src : (B,) the row of ``z``, ``valid`` (and ``shape``) of each series (default: its own).
+    shape : (A, n) the process noise per step relative to ``lam`` (B,): series ``b`` has
+        ``lam[b] shape[src[b], i]`` at step ``i``.
 
-    The steps after a leading rest run compiled (:func:`.kernel.filter_steps`). The
-    update is the simple form ``P = Pp - K H Pp`` (filterpy: Joseph form, equal in exact
-    arithmetic; they differ by round-off, ~1e-9 of the largest variance near a kick).
+    A leading rest (only the first state uncertain, nothing moving it) is a running mean;
+    the update is the simple form ``P = Pp - K H Pp`` (filterpy: Joseph form, equal in
+    exact arithmetic; they differ by round-off, ~1e-9 of the largest variance near a kick).
     """
-    B, n = z.shape
-    k = steps.k
-    kk = k * k
-    valid = np.asarray(valid, dtype=bool)
-    zz = np.where(valid, z, 0.0)
-    r2 = np.broadcast_to(np.asarray(r2, float), (B,))
-    lam = np.asarray(lam, float)
-    per_step = lam.ndim == 2
-    lam_c = lam if per_step else lam[:, None]
-    kick_c = np.asarray(kick, float)[:, None]
-    Q0 = steps.Q0.reshape(n, kk)
-    G = steps.G.reshape(n, kk)
-    # process noise of every step and series at once: lam Q0 + kick G, (n, B, kk)
-    lam_steps = lam.T if per_step else np.broadcast_to(lam_c.T, (n, B))
-    noise = lam_steps[:, :, None] * Q0[:, None, :] + kick_c.T[:, :, None] * G[:, None, :]
-    has_noise = np.any(noise != 0.0, axis=(1, 2)).tolist()
-    moves = (~np.all(steps.F == np.eye(k), axis=(1, 2))).tolist()
-    zz_t = np.array(zz.T, order="C")
-    valid_t = np.ascontiguousarray(valid.T).astype(float)
-
-    x = np.array(x0, dtype=float)
-    P = np.array(P0, dtype=float).reshape(B, kk)
-    S_hist = np.empty((n, B))
-    nu_hist = np.zeros((n, B))
-    if store:
-        xps = np.empty((n, B, k))
-        Pps = np.empty((n, B, k, k))
-    first = _rest_steps(steps, has_noise, x, P)
-    if first:
-        # a leading rest: only the first state is uncertain and nothing moves it, so the
-        # filter is a running weighted mean, done for all those steps at once
-        p0, m0 = P[:, 0], x[:, 0]
-        v = valid_t[:first]
-        count = np.cumsum(v, axis=0) - v  # valid frames before each step
-        total = np.cumsum(v * zz_t[:first], axis=0) - v * zz_t[:first]
-        p_pred = 1.0 / (1.0 / p0 + count / r2)
-        x_pred = p_pred * (m0 / p0 + total / r2)
-        S_hist[:first] = p_pred + r2
-        nu_hist[:first] = v * (zz_t[:first] - x_pred)
-        if store:
-            xps[:first] = 0.0
-            xps[:first, :, 0] = x_pred
-            Pps[:first] = 0.0
-            Pps[:first, :, 0, 0] = p_pred
-        last = first - 1
-        p_end = 1.0 / (1.0 / p_pred[last] + v[last] / r2)
-        x = np.zeros_like(x)
-        x[:, 0] = p_end * (x_pred[last] / p_pred[last] + v[last] * zz_t[last] / r2)
-        P = np.zeros_like(P)
-        P[:, 0] = p_end
-    P3 = np.ascontiguousarray(P.reshape(B, k, k))
-    # every input a fresh, writable C-ordered copy (one compiled signature); x, P3 and the
-    # histories are written in place
-    x = np.array(x, dtype=float, order="C")
-    filter_steps(int(first), np.array(steps.F, dtype=float, order="C"),
-                 np.array(noise.reshape(n, B, k, k), order="C"),
-                 np.array(moves, dtype=bool), np.array(has_noise, dtype=bool),
-                 np.array(valid.T, dtype=bool, order="C"),
-                 zz_t, np.array(r2, dtype=float),
-                 x, P3, S_hist, nu_hist, bool(store),
-                 xps if store else np.empty((1, 1, 1)),
-                 Pps if store else np.empty((1, 1, 1, 1)))
-    end = {"x_end": x, "P_end": P3}
+    if reference.active():
+        zz, vv, ll = _expanded(z, valid, lam, src, shape)
+        return reference.batch_kalman_filter(zz, vv, steps, ll, kick, r2, x0, P0, store)
+    x, P, S, nu, xp, Pp, gain, _ = _run_filter(z, valid, steps, lam, kick, r2, x0, P0, src,
+                                               shape, store, True, None)
     if not store:
-        return FilterResult(S_hist, nu_hist, **end)
-    gains = Pps[:, :, 0, :] * (valid_t / S_hist)[:, :, None]  # zero at gaps
-    return FilterResult(S_hist, nu_hist, xps, Pps, gains, **end)
+        return FilterResult(S, nu, x_end=x, P_end=P)
+    return FilterResult(S, nu, xp, Pp, gain, x, P)
 
 
-@dataclass(frozen=True)
-class SmootherResult:
-    """Output of :func:`backward_smoother`, indexed ``[step, series, ...]``.
-
-    ``x``, ``P``: smoothed state and covariance. ``r``, ``N``: for a jump ``d·Δ`` added to
-    the state at step ``i`` (between frames ``i-1`` and ``i``, ``d`` in the state at frame
-    ``i``) the score is ``d·r[i]`` and the information ``dᵀ N[i] d``: the maximum-
-    likelihood jump is ``Δ = d·r / dᵀNd``, and ``(d·r)² / dᵀNd`` the likelihood-ratio
-    statistic (χ², 1 degree of freedom per series, when there is no jump).
-    """
-
-    x: np.ndarray
-    P: np.ndarray
-    r: np.ndarray
-    N: np.ndarray
+def filter_loglik(
+    z: np.ndarray,
+    valid: np.ndarray,
+    weight: np.ndarray,
+    steps: StepModel,
+    lam: np.ndarray,
+    kick: np.ndarray,
+    r2: np.ndarray,
+    x0: np.ndarray,
+    P0: np.ndarray,
+    *,
+    src: np.ndarray | None = None,
+    shape: np.ndarray | None = None,
+) -> LoglikSums:
+    """The sums of :meth:`FilterResult.loglik_sums` (``weight`` (A, n) by ``src`` like
+    ``z``, 0 at gaps) and the filter's end state, without its histories: the filter of
+    :func:`batch_kalman_filter` for a noise search over a grid (memory per series, not per
+    series and step)."""
+    if reference.active():
+        zz, vv, ll = _expanded(z, valid, lam, src, shape)
+        filt = reference.batch_kalman_filter(zz, vv, steps, ll, kick, r2, x0, P0)
+        w = np.asarray(weight) if src is None else np.asarray(weight)[src]
+        return LoglikSums(*filt.loglik_sums(w), filt.x_end, filt.P_end)
+    x, P, *_, sums = _run_filter(z, valid, steps, lam, kick, r2, x0, P0, src, shape, False,
+                                 False, weight)
+    return LoglikSums(sums[:, 0].copy(), sums[:, 1].copy(), sums[:, 2].copy(), x, P)
 
 
 def backward_smoother(steps: StepModel, filt: FilterResult, valid: np.ndarray) -> SmootherResult:
@@ -280,33 +216,14 @@ def backward_smoother(steps: StepModel, filt: FilterResult, valid: np.ndarray) -
     singular covariances at rest need no special care, and the same ``r, N`` give the
     jump statistics used to find the release.
     """
+    if reference.active():
+        return reference.backward_smoother(steps, filt, valid)
     n, B, k = filt.xp.shape
-    kk = k * k
-    valid = np.asarray(valid, dtype=bool)
-    # L_i = F_{i+1} (I - K_i e1ᵀ) = F_{i+1} - (F_{i+1} K_i) e1ᵀ for all steps at once, and
-    # LL_i = L_i ⊗ L_i: vec(L_iᵀ N L_i) = vec(N) @ LL_i (row-major vec)
-    F_next = steps.F[1:]
-    L = np.repeat(F_next[:, None], B, axis=1)
-    L[..., 0] -= np.einsum("nij,nbj->nbi", F_next, filt.gain[:-1])
-    LL = np.einsum("nbpi,nbqj->nbpqij", L, L).reshape(n - 1, B, kk, kk)
-    r = np.zeros((B, 1, k))
-    N = np.zeros((B, 1, kk))
-    rs = np.empty((n, B, k))
-    Ns = np.empty((n, B, kk))
-    inv_S = np.where(valid.T, 1.0 / filt.S, 0.0)
-    nu_S = filt.nu * inv_S
-    for i in range(n - 1, -1, -1):
-        if i < n - 1:
-            r = r @ L[i]
-            N = N @ LL[i]
-        r[:, 0, 0] += nu_S[i]
-        N[:, 0, 0] += inv_S[i]
-        rs[i] = r[:, 0]
-        Ns[i] = N[:, 0]
-    Ns = Ns.reshape(n, B, k, k)
-    Pp = filt.Pp
-    xs = filt.xp + np.einsum("nbij,nbj->nbi", Pp, rs)
-    Ps = Pp - Pp @ Ns @ Pp
+    xs, rs = np.empty((n, B, k)), np.empty((n, B, k))
+    Ps, Ns = np.empty((n, B, k, k)), np.empty((n, B, k, k))
+    smoother_pass(_f(steps.F), _f(filt.gain), _f(filt.S), _f(filt.nu), _f(filt.xp),
+                  _f(filt.Pp), np.ascontiguousarray(valid, np.bool_), _series(None, B), xs,
+                  Ps, rs, Ns)
     return SmootherResult(xs, Ps, rs, Ns)
 
 
@@ -314,56 +231,24 @@ def smoothed_states(steps: StepModel, filt: FilterResult, valid: np.ndarray) -> 
     """Smoothed states ``x^s`` (n, B, k) only: the ``r`` half of :func:`backward_smoother`
     (``r_{i-1} = Hᵀ ν_i / S_i + L_iᵀ r_i``, ``x^s_i = xp_i + Pp_i r_{i-1}``), without the
     covariances, at a fraction of its cost."""
-    return filt.xp + np.einsum("nbij,nbj->nbi", filt.Pp, backward_sums(steps, filt, valid))
+    if reference.active():
+        return reference.smoothed_states(steps, filt, valid)
+    n, B, k = filt.xp.shape
+    xs = np.empty((n, B, k))
+    states_pass(_f(steps.F), _f(filt.gain), _f(filt.S), _f(filt.Pp), _f(filt.nu),
+                _f(filt.xp), np.ascontiguousarray(valid, np.bool_), _series(None, B), xs)
+    return xs
 
 
 def backward_sums(steps: StepModel, filt: FilterResult, valid: np.ndarray) -> np.ndarray:
     """The backward sums ``r`` (n, B, k) of :func:`backward_smoother` only."""
+    if reference.active():
+        return reference.backward_sums(steps, filt, valid)
     n, B, k = filt.xp.shape
-    valid = np.asarray(valid, dtype=bool)
-    F_next = steps.F[1:]
-    L = np.repeat(F_next[:, None], B, axis=1)
-    L[..., 0] -= np.einsum("nij,nbj->nbi", F_next, filt.gain[:-1])
-    nu_S = np.where(valid.T, filt.nu / filt.S, 0.0)
-    r = np.zeros((B, 1, k))
     rs = np.empty((n, B, k))
-    for i in range(n - 1, -1, -1):
-        if i < n - 1:
-            r = r @ L[i]
-        r[:, 0, 0] += nu_S[i]
-        rs[i] = r[:, 0]
+    sums_pass(_f(steps.F), _f(filt.gain), _f(filt.S), _f(filt.nu),
+              np.ascontiguousarray(valid, np.bool_), _series(None, B), rs)
     return rs
-
-
-def simulated_model_runs(steps: StepModel, noise: np.ndarray, kick: np.ndarray,
-                         r2: np.ndarray, prior: np.ndarray, rng: np.random.Generator
-                         ) -> np.ndarray:
-    """Measurements (B, n) drawn from the state-space model itself: the first state of
-    ``x_i = F_i x_{i-1} + w_i``, ``w_i ~ N(0, noise[b] Q0_i + kick[b] G_i)`` (``noise``
-    (B, n), ``kick`` (B,)), ``x_0 ~ N(0, prior[b])`` (B, k, k), plus white measurement
-    noise of variance ``r2`` (B,) (0: none)."""
-    n, k = steps.n, steps.k
-    B = noise.shape[0]
-
-    def root(C: np.ndarray) -> np.ndarray:
-        w, v = np.linalg.eigh(C)
-        return v * np.sqrt(np.clip(w, 0.0, None))[..., None, :]
-
-    q_root = root(steps.Q0)  # (n, k, k)
-    g_root = root(steps.G)  # nonzero at the events only
-    x = np.einsum("bij,bj->bi", root(np.asarray(prior, float)), rng.standard_normal((B, k)))
-    FT = np.ascontiguousarray(np.swapaxes(steps.F, 1, 2))
-    w = (np.sqrt(np.asarray(noise, float).T)[:, :, None]
-         * np.einsum("nij,nbj->nbi", q_root, rng.standard_normal((n, B, k))))
-    events = np.flatnonzero(np.any(steps.G != 0.0, axis=(1, 2)))
-    w[events] += (np.sqrt(np.asarray(kick, float))[None, :, None]
-                  * np.einsum("nij,nbj->nbi", g_root[events],
-                              rng.standard_normal((events.size, B, k))))
-    z = np.empty((B, n))
-    for i in range(n):
-        x = x @ FT[i] + w[i]
-        z[:, i] = x[:, 0]
-    return z + np.sqrt(np.asarray(r2, float))[:, None] * rng.standard_normal((B, n))
 
 
 def refiltered(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.ndarray,
@@ -373,30 +258,144 @@ def refiltered(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.nd
     the data, so the filter of ``z`` keeps them and only the means (``xp``, ``nu``,
     ``x_end``) change. ``valid`` must be the mask ``filt`` ran with (its gains are zero at
     the gaps); ``x0`` (B, k) the prior mean. For :func:`smoothed_states` of ``z``."""
+    if reference.active():
+        return reference.refiltered(steps, filt, z, valid, x0)
     n, B, k = filt.xp.shape
-    FT = np.ascontiguousarray(np.swapaxes(steps.F, 1, 2))
-    ok = np.asarray(valid, bool).T
-    zz = np.where(ok, np.asarray(z, float).T, 0.0)
-    gain = filt.gain
-    x = np.array(x0, dtype=float)
-    xp = np.empty((n, B, k))
-    nu = np.zeros((n, B))
-    for i in range(n):
-        x = x @ FT[i]
-        xp[i] = x
-        v = (zz[i] - x[:, 0]) * ok[i]
-        nu[i] = v
-        x = x + gain[i] * v[:, None]
-    return FilterResult(filt.S, nu, xp, filt.Pp, gain, x, filt.P_end)
+    x = np.array(x0, dtype=np.float64, order="C")
+    nu, xp = np.empty((n, B)), np.empty((n, B, k))
+    refilter_pass(_f(steps.F), _f(filt.gain), np.ascontiguousarray(valid, np.bool_),
+                  _series(None, B), _f(z), x, nu, xp)
+    return FilterResult(filt.S, nu, xp, filt.Pp, filt.gain, x, filt.P_end)
+
+
+def _refilter_of(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.ndarray,
+                 x0: np.ndarray, src: np.ndarray, kx: int) -> tuple[np.ndarray, np.ndarray]:
+    """The innovations (n, B) and the first ``kx`` predicted states (n, B, kx) of the
+    filter of ``filt.series(src)`` run on ``z`` (B, n); ``valid`` (A, n) by ``src``."""
+    n, B = steps.n, src.size
+    nu, xp = np.empty((n, B)), np.empty((n, B, kx))
+    refilter_pass(_f(steps.F), _f(filt.gain), np.ascontiguousarray(valid, np.bool_), src,
+                  _f(z), np.array(x0, dtype=np.float64, order="C"), nu, xp)
+    return nu, xp
+
+
+def resmoothed(steps: StepModel, filt: FilterResult, z: np.ndarray, valid: np.ndarray,
+               x0: np.ndarray, src: np.ndarray | None = None, states: int | None = None
+               ) -> np.ndarray:
+    """The smoothed states (n, B, ``states`` of k) of other measurements ``z`` (B, n) by
+    the smoother of ``filt``'s series ``src[b]`` (its gains), from the prior mean ``x0``
+    (B, k): ``smoothed_states(steps, refiltered(steps, filt.series(src), z, valid[src],
+    x0), valid[src])``, with ``valid`` (A, n) the mask ``filt`` ran with, without copying
+    the gains and covariances per series."""
+    k = steps.k
+    B = np.asarray(z).shape[0]
+    src = _series(src, B)
+    kx = k if states is None else int(states)
+    if reference.active():
+        one = filt.series(src)
+        ok = np.asarray(valid)[src]
+        return reference.smoothed_states(steps, reference.refiltered(steps, one, z, ok, x0),
+                                         ok)[:, :, :kx]
+    nu, xp = _refilter_of(steps, filt, z, valid, x0, src, kx)
+    # xs = xp + Pp r written over xp (each element read once, before it is written)
+    states_pass(_f(steps.F), _f(filt.gain), _f(filt.S), _f(filt.Pp), nu, xp,
+                np.ascontiguousarray(valid, np.bool_), src, xp)
+    return xp
+
+
+def residual_innovations(steps: StepModel, filt: FilterResult, z: np.ndarray,
+                         valid: np.ndarray, src: np.ndarray) -> FilterResult:
+    """The innovations of the filter of ``filt``'s series ``src[b]`` (its gains) run on
+    ``z`` (B, n) from a zero prior mean (``valid`` (A, n) by ``src``), for
+    :func:`residual_quadratics` (``z`` is not needed after it)."""
+    k = steps.k
+    src = _series(src, np.asarray(z).shape[0])
+    if reference.active():
+        one = reference.refiltered(steps, filt.series(src), z, np.asarray(valid)[src],
+                                   np.zeros((src.size, k)))
+        return FilterResult(one.S, one.nu, xp=one.xp, Pp=one.Pp, gain=one.gain)
+    nu, _ = _refilter_of(steps, filt, z, valid, np.zeros((src.size, k)), src, 0)
+    return FilterResult(filt.S, nu)
+
+
+def residual_quadratics(steps: StepModel, filt: FilterResult, innovations: FilterResult,
+                        valid: np.ndarray, src: np.ndarray, pairs: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """``ρᵀ Q0 ρ`` (n, B) of the backward sums ``ρ`` of the smoother of ``filt``'s series
+    ``src[b]`` of the ``innovations`` :func:`residual_innovations` gave (``valid`` (A, n) by
+    ``src``), and ``(ρ_a + ρ_b)ᵀ Q0 (ρ_a + ρ_b)`` (n, P) for each row ``(a, b)`` of
+    ``pairs`` (P, 2)."""
+    n = steps.n
+    src = _series(src, innovations.nu.shape[1])
+    pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if reference.active():
+        rho = reference.backward_sums(steps, innovations, np.asarray(valid)[src])
+        both = rho[:, pairs[:, 0]] + rho[:, pairs[:, 1]]
+        return (np.einsum("nai,nij,naj->na", rho, steps.Q0, rho, optimize=True),
+                np.einsum("nai,nij,naj->na", both, steps.Q0, both, optimize=True))
+    nu = innovations.nu
+    quad, pair_quad = np.empty((n, src.size)), np.empty((n, pairs.shape[0]))
+    quad_pass(_f(steps.F), _f(filt.gain), _f(filt.S), nu, np.ascontiguousarray(valid, np.bool_),
+              src, _f(steps.Q0), pairs, quad, pair_quad)
+    return quad, pair_quad
+
+
+def simulated_model_runs(steps: StepModel, noise: np.ndarray, kick: np.ndarray,
+                         r2: np.ndarray, prior: np.ndarray, rng: np.random.Generator,
+                         src: np.ndarray | None = None, out: np.ndarray | None = None
+                         ) -> np.ndarray:
+    """Measurements (B, n) drawn from the state-space model itself: the first state of
+    ``x_i = F_i x_{i-1} + w_i``, ``w_i ~ N(0, noise[b] Q0_i + kick[b] G_i)`` (``noise``
+    (B, n), or (S, n) with series ``b`` on row ``src[b]``; ``kick`` (B,)), ``x_0 ~ N(0,
+    prior[b])`` (B, k, k), plus white measurement noise of variance ``r2`` (B,) (0: none).
+
+    The draws are those of one ``rng.standard_normal`` call each for the start (B, k), the
+    steps (n, B, k), the kicks (events, B, k) and the measurements (B, n), in that order;
+    the steps' are made :data:`DRAW_CHUNK` rows at a time, so no (n, B, k) array is held,
+    and the runs made without the kicks, whose responses (the model is linear) are added
+    once their draws come. ``out``: a C-ordered (B, n) array to write the draws into
+    (returned)."""
+    noise = np.asarray(noise, float)
+    if reference.active():
+        z = reference.simulated_model_runs(steps, noise if src is None else noise[src], kick,
+                                           r2, prior, rng)
+        if out is None:
+            return z
+        out[...] = z
+        return out
+    n, k = steps.n, steps.k
+    B = np.asarray(kick).size
+    src = _series(src, B)
+    q_root = _f(matrix_root(steps.Q0))
+    events = np.flatnonzero(np.any(steps.G != 0.0, axis=(1, 2))).astype(np.int64)
+    g_root = _f(matrix_root(steps.G[events]))
+    x = np.einsum("bij,bj->bi", matrix_root(np.asarray(prior, float)), rng.standard_normal((B, k)))
+    x = np.array(x, dtype=np.float64, order="C")
+    sd = _f(np.sqrt(noise))
+    kick_sd = _f(np.sqrt(np.asarray(kick, float)))
+    z = np.empty((B, n)) if out is None else out
+    F = _f(steps.F)
+    none = np.zeros(0, dtype=np.int64)
+    for lo in range(0, n, DRAW_CHUNK):
+        normals = rng.standard_normal((min(DRAW_CHUNK, n - lo), B, k))
+        simulate_chunk(lo, F, q_root, g_root, none, sd, src, kick_sd, normals,
+                       np.zeros((0, B, k)), x, z)
+    kick_responses(F, g_root, events, kick_sd, rng.standard_normal((events.size, B, k)), z)
+    r_sd = np.sqrt(np.asarray(r2, float))
+    rows = max(1, DRAW_CHUNK // max(n, 1))  # the (B, n) draws a few series at a time
+    for lo in range(0, B, rows):
+        hi = min(lo + rows, B)
+        z[lo:hi] += r_sd[lo:hi, None] * rng.standard_normal((hi - lo, n))
+    return z
 
 
 def error_covariance(steps: StepModel, filt: FilterResult, sm: SmootherResult,
-                     valid: np.ndarray, r2: np.ndarray, noise: np.ndarray,
+                     valid: np.ndarray, r2: np.ndarray, lam: np.ndarray, kick: np.ndarray,
                      prior: np.ndarray, parts: bool = False):
     """Covariance (n, B, k, k) of the smoothed states' error ``x − x̂`` when the smoother
     of ``filt``/``sm`` (its gains, from its own model) runs on data whose true process
-    noise is ``noise`` (n, B, k, k) per step and series, with measurement variance ``r2``
-    (B,) and prior covariance ``prior`` (B, k, k) at frame 0.
+    noise is ``lam[b] Q0 + kick[b] G`` per step and series (``lam``, ``kick`` (B,)), with
+    measurement variance ``r2`` (B,) and prior covariance ``prior`` (B, k, k) at frame 0.
 
     With the prediction error ``e_i = x_i − xp_i`` (``e_{i+1} = L_i e_i − F_{i+1} K_i v_i
     + w_{i+1}``, ``Π_{i+1} = L_i Π_i L_iᵀ + r F K Kᵀ Fᵀ + W_{i+1}``) the backward sum
@@ -409,54 +408,16 @@ def error_covariance(steps: StepModel, filt: FilterResult, sm: SmootherResult,
     smoother's ``r``), ``N Π N + U``.
     """
     n, B, k = filt.xp.shape
-    kk = k * k
-    valid = np.asarray(valid, bool)
-    r2 = np.asarray(r2, float)
-    F_next = steps.F[1:]
-    L = np.repeat(F_next[:, None], B, axis=1)
-    L[..., 0] -= np.einsum("nij,nbj->nbi", F_next, filt.gain[:-1])
-    LL = np.einsum("nbpi,nbqj->nbpqij", L, L).reshape(n - 1, B, kk, kk)
-    LLT = np.swapaxes(LL, 2, 3)
-    FK = np.einsum("nij,nbj->nbi", F_next, filt.gain[:-1])  # (n-1, B, k)
-    # forward: Π
-    drive_f = (r2[None, :, None, None] * FK[..., :, None] * FK[..., None, :]
-               + noise[1:]).reshape(n - 1, B, kk)
-    Pi = np.empty((n, B, kk))
-    p = np.asarray(prior, float).reshape(B, kk)
-    Pi[0] = p
-    for i in range(n - 1):
-        p = (p[:, None, :] @ LLT[i])[:, 0] + drive_f[i]
-        Pi[i + 1] = p
-    # backward: U
-    N = sm.N
-    inv_S = np.where(valid.T, 1.0 / filt.S, 0.0)  # (n, B)
-    NL = N[1:] @ L  # N_{i+1} L_i
-    c = -np.einsum("nbji,nbj->nbi", L, np.einsum("nbij,nbj->nbi", N[1:], FK))
-    c = np.concatenate([c, np.zeros((1, B, k))])
-    c[..., 0] += inv_S
-    NW = NL  # L_iᵀ N_{i+1} W_{i+1} N_{i+1} L_i
-    wterm = np.swapaxes(NW, 2, 3) @ noise[1:] @ NW
-    drive_b = r2[None, :, None, None] * c[..., :, None] * c[..., None, :]
-    drive_b[:-1] += wterm
-    U = _accumulate_backward(drive_b.reshape(n, B, kk), LL)
-    Pp = filt.Pp
-    M = np.eye(k) - Pp @ N
-    Pi = Pi.reshape(n, B, k, k)
-    U = U.reshape(n, B, k, k)
-    err = M @ Pi @ np.swapaxes(M, 2, 3) + Pp @ U @ Pp
-    if parts:
-        return err, N @ Pi @ N + U
-    return err
-
-
-def _accumulate_backward(drive: np.ndarray, LL: np.ndarray) -> np.ndarray:
-    """``U_i = drive_i + U_{i+1} LL_i`` from the last step back (rows (B, k²) per step): the
-    backward sums of the smoother's error recursions."""
-    n = drive.shape[0]
-    U = np.empty_like(drive)
-    u = drive[n - 1].copy()
-    U[n - 1] = u
-    for i in range(n - 2, -1, -1):
-        u = (u[:, None, :] @ LL[i])[:, 0] + drive[i]
-        U[i] = u
-    return U
+    lam = np.broadcast_to(np.asarray(lam, float), (B,))
+    kick = np.broadcast_to(np.asarray(kick, float), (B,))
+    if reference.active():
+        noise = (lam[None, :, None, None] * steps.Q0[:, None]
+                 + kick[None, :, None, None] * steps.G[:, None])
+        return reference.error_covariance(steps, filt, sm, valid, r2, noise, prior, parts)
+    err = np.empty((n, B, k, k))
+    covr = np.empty((n, B, k, k)) if parts else np.empty((0, 0, 0, 0))
+    error_cov_pass(_f(steps.F), _f(steps.Q0), _f(steps.G), _f(filt.gain), _f(filt.S),
+                   _f(filt.Pp), _f(sm.N), np.ascontiguousarray(valid, np.bool_),
+                   _series(None, B), _f(np.broadcast_to(np.asarray(r2, float), (B,))), _f(lam),
+                   _f(kick), _f(prior), err, covr)
+    return (err, covr) if parts else err

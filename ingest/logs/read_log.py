@@ -34,16 +34,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import Option, TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
-from trebuchet.ingest.geometry.beam_hinge import beam_hinge, hinge_note
-from trebuchet.ingest.geometry.points import NEEDS, point_angles, resolve_points
-from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
-from trebuchet.ingest.geometry.stuck_points import off_engine, stuck_runs
+from trebuchet.errors import (
+    Option,
+    TrebuchetDataWarning,
+    TrebuchetInputError,
+    printable,
+    warn_at_caller,
+)
 from trebuchet.ingest.geometry.user_calibration import (
     RESIDUAL_WARN_PX,
     UserCalibration,
     read_calibration,
 )
+from trebuchet.ingest.logs.from_points import PIXEL_FORMATS, from_points  # noqa: F401 (PIXEL_FORMATS: calibrated_angles reads it here)
+from trebuchet.ingest.logs.outliers import drop_single_frame_outliers
 from trebuchet.ingest.logs.repairs import (
     drop_repeated_frames,
     drop_rows_without_angles,
@@ -52,7 +56,7 @@ from trebuchet.ingest.logs.repairs import (
     unwrap_angles,
 )
 from trebuchet.ingest.logs.result import ReadLog
-from trebuchet.ingest.logs.units import angle_units, rate_check, y_axis
+from trebuchet.ingest.logs.units import angle_units, rate_check
 from trebuchet.ingest.readers.anipose import looks_like_anipose, read_anipose
 from trebuchet.ingest.readers.deeplabcut import (
     looks_like_deeplabcut,
@@ -60,17 +64,17 @@ from trebuchet.ingest.readers.deeplabcut import (
     read_deeplabcut_h5,
 )
 from trebuchet.ingest.readers.generic import read_generic
+from trebuchet.ingest.readers.hdf5 import is_hdf5, log_bytes
 from trebuchet.ingest.readers.kinovea import looks_like_kinovea, read_kinovea
 from trebuchet.ingest.readers.mapping import ANGLES, check_mapping, missing_angle_error, resolve
 from trebuchet.ingest.readers.sleap import (
-    is_hdf5,
     looks_like_sleap_csv,
     looks_like_sleap_h5,
     read_sleap_csv,
     read_sleap_h5,
 )
 from trebuchet.ingest.readers.source import LogSource, ParsedLog
-from trebuchet.ingest.readers.table import format_rows, read_text, split_lines
+from trebuchet.ingest.readers.table import decode_text, split_lines
 from trebuchet.ingest.readers.time_units import check_time_unit
 from trebuchet.ingest.readers.timebase import (
     check_fps,
@@ -234,34 +238,31 @@ def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None
     note = drop_repeated_frames(log)
     if note:
         repairs.append(note)
+    unwrapped = unwrap_angles(log)
+    repairs += drop_single_frame_outliers(log) + unwrapped
     complete = int(np.isfinite(np.column_stack([log.angles[a] for a in ANGLES])).all(1).sum())
     if complete < MIN_FRAMES:
         raise TrebuchetInputError(
             f"only {complete} frames with all three angles; at least {MIN_FRAMES} "
             f"are needed"
         )
-    repairs += unwrap_angles(log)
     return log, repairs
 
 
 def _read_source(path: str | Path, fps: float | None, min_likelihood: float,
                  individual: str | None, points: Mapping[str, str] | None,
                  time_unit: str | None) -> LogSource:
-    """Recognise the format from the content and read the file."""
-    if is_hdf5(path):
-        try:
-            if looks_like_sleap_h5(path):
-                source = read_sleap_h5(path, fps, min_likelihood, individual)
-            else:
-                source = read_deeplabcut_h5(path, fps, min_likelihood, individual)
-        except TrebuchetInputError:
-            raise
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise TrebuchetInputError(
-                f"is not a text (CSV) file, and starts like an HDF5 file that cannot be "
-                f"read as SLEAP's or DeepLabCut's ({type(exc).__name__}: {exc})") from None
+    """Recognise the format from the content and read the file (once: a regular file of
+    bounded size, :func:`.hdf5.log_bytes`)."""
+    raw = log_bytes(path)
+    if is_hdf5(raw):
+        if looks_like_sleap_h5(raw):
+            source = read_sleap_h5(raw, fps, min_likelihood, individual)
+        else:
+            source = read_deeplabcut_h5(raw, fps, min_likelihood, individual)
         return _frame_indexed(source, fps, time_unit)
-    numbered = split_lines(read_text(path))
+    text = decode_text(raw)
+    numbered = split_lines(text)
     if looks_like_deeplabcut(numbered):
         source = read_deeplabcut(numbered, fps, min_likelihood, individual)
     elif looks_like_sleap_csv(numbered):
@@ -270,17 +271,36 @@ def _read_source(path: str | Path, fps: float | None, min_likelihood: float,
         source = read_anipose(numbered, fps, points)
     else:
         source = None
+    cut = _cut_last_row(text, numbered)
     if source is not None:
+        source.repairs.extend(cut)
         return _frame_indexed(source, fps, time_unit)
     if individual is not None:
         raise TrebuchetInputError(
             f"individual={individual!r} is for DeepLabCut multi-animal and SLEAP files; "
             "this file has no individuals")
     if looks_like_tracker(numbered):
-        return read_tracker(numbered, fps, time_unit)
-    if looks_like_kinovea(numbered):
-        return read_kinovea(numbered, fps, time_unit)
-    return read_generic(numbered, fps, time_unit)
+        source = read_tracker(numbered, fps, time_unit)
+    elif looks_like_kinovea(numbered):
+        source = read_kinovea(numbered, fps, time_unit)
+    else:
+        source = read_generic(numbered, fps, time_unit)
+    source.repairs.extend(cut)
+    return source
+
+
+def _cut_last_row(text: str, numbered: list[tuple[int, str]]) -> list[str]:
+    """A note when the file ends without a line end inside a row shorter than the one
+    before (fewer delimiters): an export or copy cut short, its last row partial."""
+    if len(numbered) < 2 or text.endswith(("\n", "\r")):
+        return []
+    (_, before), (number, last) = numbered[-2], numbered[-1]
+    delimiter = max(",;\t", key=before.count)
+    if last.count(delimiter) >= before.count(delimiter):
+        return []
+    return [f"the file ends inside row {number}, which has fewer cells than the row before "
+            "and no line end: the file is cut (an interrupted export or copy?); its cells "
+            "missing are gaps"]
 
 
 def _frame_indexed(source: LogSource, fps: float | None, time_unit: str | None) -> LogSource:
@@ -337,7 +357,7 @@ def _choose_angles(
                 "give either columns= (angle columns) or points= (point positions), "
                 "not both"
             )
-        return _from_points(source, points, calibration)
+        return from_points(source, points, calibration)
     if calibration is not None:
         raise TrebuchetInputError(
             f"calibration= is for files of tracked points in image pixels; this {source.fmt} "
@@ -383,151 +403,18 @@ def _has_default_angles(source: LogSource) -> bool:
     return any(c.default in ANGLES for c in source.angle_columns)
 
 
-#: The point each point's tie runs to (for the note on positions off the engine).
-TIED = {"spigot": "pivot", "hinge": "beam", "counterweight": "hinge", "projectile": "spigot"}
-
-
-#: Formats whose points are image pixels: a user's calibration applies to them.
-PIXEL_FORMATS = ("deeplabcut", "sleap")
-
-
-def _from_points(
-    source: LogSource, points: Mapping[str, str] | None,
-    calibration: UserCalibration | None = None,
-) -> ParsedLog:
-    """The angles from the point positions named by ``points`` (see :mod:`.angles_from_points`)."""
-    chosen = resolve_points(source.point_tracks, dict(points) if points else None)
-    repairs = list(source.repairs)
-    decisions = list(source.decisions)
-    positions: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    for role, cand in chosen.items():
-        x, y, note = cand.data()
-        if np.isnan(x).all() or np.isnan(y).all():
-            raise TrebuchetInputError.at(
-                f"point '{cand.label}' ({role})", "no position at all"
-            )
-        positions[role] = (np.asarray(x, dtype=float), np.asarray(y, dtype=float))
-        if note:
-            repairs.append(note)
-    if source.y_down is None:
-        down, decision = y_axis(positions)
-        decisions.append(decision)
-        if down:
-            positions = {r: (x, -y) for r, (x, y) in positions.items()}
-    if calibration is not None:
-        if source.fmt not in PIXEL_FORMATS:
-            raise TrebuchetInputError(
-                f"calibration= is for points in image pixels (DeepLabCut, SLEAP); this "
-                f"{source.fmt} file's positions are not known to be pixels")
-        positions = {r: tuple(calibration.to_plane(np.column_stack(xy)).T)
-                     for r, xy in positions.items()}
-        decisions.append(calibration.describe())
-    held = []
-    for run in stuck_runs(positions):  # a tracker held on an occluder: gaps, named
-        held.append((run.point, float(source.t[run.first]), float(source.t[run.last])))
-        x, y = (v.copy() for v in positions[run.point])
-        x[run.first:run.last + 1] = np.nan
-        y[run.first:run.last + 1] = np.nan
-        positions[run.point] = (x, y)
-        t0, t1 = source.t[run.first], source.t[run.last]
-        repairs.append(
-            f"{run.point} ('{chosen[run.point].label}') stands still (within {run.spread:.3g}) "
-            f"in rows {source.rows[run.first]}-{source.rows[run.last]} (t = {t0:.6g}-{t1:.6g} "
-            f"s) while the {run.reference} moves {run.moved:.3g}: the tracker is stuck "
-            "(on an occluder?); those positions are left out as gaps")
-    jumps: dict[str, list[int]] = {}
-    for off in off_engine(positions):  # a few frames off the engine's geometry: gaps, named
-        x, y = (v.copy() for v in positions[off.point])
-        x[off.first:off.last + 1] = np.nan
-        y[off.first:off.last + 1] = np.nan
-        positions[off.point] = (x, y)
-        jumps.setdefault(off.point, []).extend(range(off.first, off.last + 1))
-    for role, frames in jumps.items():
-        repairs.append(
-            f"{role} ('{chosen[role].label}') lies off the engine's geometry (its distance or "
-            f"line to the {TIED[role]} breaks) in {format_rows(source.rows[frames])}: a "
-            "tracker's wrong match; those positions are left out as gaps")
-    hinge = _hinge_of_the_beam(positions, source, chosen, repairs)
-    angles = point_angles(positions if hinge is None else positions | {"hinge": hinge})
-    leaves, note = _cut_flight_from_sling(source, positions, angles)
-    if note:
-        repairs.append(note)
-    labels = {}
-    for angle, pairs in NEEDS.items():
-        for a, b in pairs:
-            if a in positions and b in positions:
-                labels[angle] = f"{chosen[a].label} -> {chosen[b].label}"
-                break
-    flat = {}
-    for role, (x, y) in positions.items():
-        flat[f"{role}_x"] = x
-        flat[f"{role}_y"] = y
-    return ParsedLog(
-        fmt=source.fmt,
-        t=source.t,
-        rows=source.rows,
-        angles=angles,
-        labels=labels,
-        frame=source.frame,
-        fps=source.fps,
-        points=flat,
-        point_names={role: cand.label for role, cand in chosen.items()},
-        repairs=repairs,
-        leaves_sling=leaves,
-        decisions=decisions,
-        held=tuple(held),
-    )
-
-
-def _hinge_of_the_beam(positions: dict[str, tuple[np.ndarray, np.ndarray]], source: LogSource,
-                       chosen: Mapping, repairs: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
-    """The hinge (x, y) for psi: the tracked one, filled and checked by the beam through pivot
-    and spigot (:mod:`.beam_hinge`; a note in ``repairs``), or None to keep it as tracked."""
-    if not all(r in positions for r in ("pivot", "spigot", "hinge")):
-        return None
-    fit = beam_hinge(*(np.column_stack(positions[r]) for r in ("pivot", "spigot", "hinge")))
-    note = None if fit is None else hinge_note(fit, source.rows, chosen["hinge"].label)
-    if note is None:
-        return None
-    repairs.append(note)
-    return fit.xy[:, 0], fit.xy[:, 1]
-
-
-def _cut_flight_from_sling(source: LogSource, positions: dict[str, tuple[np.ndarray, np.ndarray]],
-                           angles: dict[str, np.ndarray]
-                           ) -> tuple[tuple[float, float] | None, str | None]:
-    """Blank phi where the tracked projectile has left its sling's circle (in flight after
-    the release, see :mod:`.sling_circle`); return (that time and its sd in s, the repair
-    note), or (None, None)."""
-    if not all(r in positions for r in ("pivot", "spigot", "projectile")):
-        return None, None
-    ratio = sling_ratio(positions["pivot"], positions["spigot"], positions["projectile"])
-    found = leaving_time(source.t, ratio)
-    if found is None:
-        return None, None
-    first = int(np.searchsorted(source.t, found[0], side="right"))
-    cut = np.isfinite(angles["phi"]) & (np.arange(ratio.size) >= first)
-    angles["phi"][cut] = np.nan
-    level = float(np.nanmedian(ratio))
-    far = float(np.nanmax(ratio[first:])) / level
-    return found, (f"the projectile leaves its sling's circle at t = {found[0]:.6g} ± "
-            f"{found[1]:.2g} s, before row {source.rows[first]}, and ends {far:.3g}× the "
-            f"sling's length from the spigot: the stone is in flight, so phi (spigot -> "
-            f"projectile) is no sling angle there; its {int(cut.sum())} values from that row "
-            "on are left out (the release lies before it)")
-
-
 def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame:
     """The result table with its :class:`ReadLog`; warns once per repair."""
     df = pd.DataFrame(
         {"t": np.asarray(log.t, dtype=np.float64)}
         | {a: np.asarray(log.angles[a], dtype=np.float64) for a in ANGLES}
     )
+    repairs = [printable(r) for r in repairs]  # names from the file reach the terminal
     info = ReadLog(
         source=str(path),
         format=log.fmt,
         repairs=tuple(repairs),
-        decisions=tuple(log.decisions),
+        decisions=tuple(printable(d) for d in log.decisions),
         columns=dict(log.labels),
         fps=None if log.fps is None else float(log.fps),
         frame=log.frame,

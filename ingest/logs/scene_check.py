@@ -118,7 +118,58 @@ def scene_check(log: pd.DataFrame, scene: Scene | str, *, band: tuple[float, flo
     note = (f"the log's swing is the scene's: the beam sweeps {sweep:.4g}° (scene "
             f"{sweep_sim:.4g}°) from rest to its fastest point, {duration:.4g} s (scene "
             f"{duration_sim:.4g} s) after leaving rest by {DEPARTURE_DEG:g}°")
+    sling = _sling_in_the_trough(log, scene, rest, band)
+    if sling:
+        note += f"; {sling}"
     return SceneCheck(True, sweep, sweep_sim, duration, duration_sim, note)
+
+
+#: The stretch of the beam's rise over which the projectile is dragged along the trough:
+#: the spigot risen by these shares of L1 from rest (before any engine's lift-off).
+TROUGH_RISE = (0.05, 0.3)
+#: Fewest frames of that stretch for the sling's length to be measured.
+TROUGH_FRAMES = 5
+
+
+def _sling_in_the_trough(log: pd.DataFrame, scene: Scene, rest: float,
+                         band: tuple[float, float]) -> str | None:
+    """The sling's length the log shows while the projectile is dragged along the trough,
+    against the scene's L4 (an error outside ``band``); None when the log does not show it.
+
+    In the trough the projectile lies at height 0, so the spigot's height (the scene's H
+    and L1, the log's θ) equals ``−L4 sin φ`` (the log's φ): over the first rise of the
+    beam (:data:`TROUGH_RISE`) the least-squares ``L4 = −Σ h sin φ / Σ sin² φ``. A scene
+    whose sling cannot reach the trough from there (a 1 mm sling on a shot with a 5.5 m
+    one) is no engine of this log: its loads would be missing (NaN) while in the trough."""
+    if scene.projectile != "trough":
+        return None
+    e, s = scene.engine, scene.start
+    t = log["t"].to_numpy(dtype=float)
+    theta = log["theta"].to_numpy(dtype=float)
+    phi = log["phi"].to_numpy(dtype=float)
+    rise = e.L1 * (np.sin(theta) - math.sin(rest))
+    h = s.H + e.L1 * math.sin(s.theta) + rise     # the spigot's height, rest as the scene's
+    low, high = (f * e.L1 for f in TROUGH_RISE)
+    first = np.flatnonzero(rise > high)
+    end = first[0] if first.size else t.size
+    use = np.isfinite(h) & np.isfinite(phi) & (rise >= low) & (np.arange(t.size) < end)
+    if use.sum() < TROUGH_FRAMES:
+        return None
+    sin_phi = np.sin(phi[use])
+    length = float(-np.sum(h[use] * sin_phi) / np.sum(sin_phi * sin_phi))
+    ratio = length / e.L4
+    rows = read_log_info(log).lines if read_log_info(log) is not None else None
+    where = (f"rows {rows[use][0]}-{rows[use][-1]}" if rows is not None and len(rows) == t.size
+             else f"t = {t[use][0]:.4g}-{t[use][-1]:.4g} s")
+    if not band[0] <= ratio <= band[1]:
+        raise TrebuchetInputError(
+            f"{_name(log)}: the scene's [engine] L4 = {e.L4:g} m is not this log's sling: "
+            f"while the beam first rises ({where}) its θ and φ drag the projectile along the "
+            f"trough as a sling of {length:.3g} m does ({ratio:.3g}× L4, outside "
+            f"{band[0]:g}-{band[1]:g}×, with the scene's H and L1); is the scene the engine "
+            "filmed?")
+    return (f"in the trough the sling drags the projectile as one of {length:.3g} m does "
+            f"(scene L4 = {e.L4:g} m)")
 
 
 def _rest_window(t: np.ndarray) -> int:

@@ -66,7 +66,10 @@ def rate_check(t: np.ndarray, angles: dict[str, np.ndarray], labels: dict[str, s
         if both.sum() < 5 or not np.any(d[both]):
             continue
         scaled = rate[both] * factors.get(a, 1.0)
-        ratio = float(np.dot(scaled, d[both]) / np.dot(d[both], d[both]))
+        # the median ratio where the angle moves: one bad cell (whose derivative is huge on
+        # two frames) does not sway it, as it sways a least-squares fit
+        moving = np.abs(d[both]) >= 0.2 * np.percentile(np.abs(d[both]), 90)
+        ratio = float(np.median(scaled[moving] / d[both][moving]))
         if ratio > 0 and 1 / RATE_AGREEMENT <= ratio <= RATE_AGREEMENT:
             return (f"time unit confirmed: the rate column beside '{labels[a]}' is "
                     f"d{a}/dt per s of the time read (ratio {ratio:.3g})")

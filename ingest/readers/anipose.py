@@ -28,6 +28,7 @@ import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
 from trebuchet.ingest.readers.keypoints import keypoint_source
+from trebuchet.ingest.readers.limits import MAX_COORDINATE
 from trebuchet.ingest.readers.mapping import ROLES, Candidate, check_mapping, resolve, role_default
 from trebuchet.ingest.readers.source import LogSource
 from trebuchet.ingest.readers.table import header_and_rows, numeric_column
@@ -62,6 +63,15 @@ def read_anipose(numbered: list[tuple[int, str]], fps: float | None,
     frames = numeric_column(data, cols["fnum"], "fnum")
     xyz = {j: np.column_stack([numeric_column(data, cols[f"{j}_{a}"], f"{j}_{a}")
                                for a in AXES]) for j in joints}
+    for j, p in xyz.items():
+        with np.errstate(invalid="ignore"):
+            far = np.abs(p) > MAX_COORDINATE
+        if far.any():
+            k, a = (int(v[0]) for v in np.nonzero(far))
+            raise TrebuchetInputError.at(
+                f"row {rows[k]}, column '{j}_{AXES[a]}'", f"{p[k, a]:.4g} lies beyond "
+                f"{MAX_COORDINATE:.0e} in any unit: no survey of an engine reaches it (a "
+                "corrupt value?)")
     origin, normal, spread, rms = _plane(xyz)
     roles = _roles(joints, points)
     up, right, rest = _axes(xyz, roles, normal)

@@ -13,8 +13,9 @@ Layout::
   Points are named ``<individual>/<bodypart>`` (or ``<bodypart>`` alone when unique);
 * the .h5 is a pandas HDF file (PyTables; key ``df_with_missing``, or ``tracks`` for
   stitched multi-animal tracks; "table" or "fixed" format) holding the same table: columns
-  ``scorer / [individuals /] bodyparts / coords``, index the frame number; reading it
-  needs the package ``tables``; its rows are numbered frame + 1 in messages;
+  ``scorer / [individuals /] bodyparts / coords``, index the frame number; it is read with
+  h5py, nothing unpickled (:mod:`.pandas_hdf`: a file with pickled objects is refused);
+  its rows are numbered frame + 1 in messages;
 * the first column is the frame index; there is no time: ``fps`` is required and
   ``t = frame / fps``;
 * image coordinates in pixels with y pointing **down**: y is negated here so that the
@@ -29,8 +30,10 @@ from pathlib import Path
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.readers.hdf5 import open_hdf5
 from trebuchet.ingest.readers.keypoints import choose_individual, keypoint_source
 from trebuchet.ingest.readers.mapping import Candidate, role_default
+from trebuchet.ingest.readers.pandas_hdf import frame_keys, read_frame
 from trebuchet.ingest.readers.source import LogSource
 from trebuchet.ingest.readers.table import (
     Line,
@@ -128,53 +131,54 @@ UNIQUE = "single"
 H5_KEYS = ("df_with_missing", "tracks")
 
 
-def read_deeplabcut_h5(path: str | Path, fps: float | None, min_likelihood: float,
+def read_deeplabcut_h5(source: str | Path | bytes, fps: float | None, min_likelihood: float,
                        individual: str | None = None) -> LogSource:
-    """Read a DeepLabCut .h5 (pandas HDF; see the module doc). ``path`` is opened here;
-    errors leave its name to the caller, as the text readers do."""
-    import pandas as pd
-
-    try:
-        with pd.HDFStore(path, mode="r") as store:
-            keys = [k.lstrip("/") for k in store.keys()]
-            key = next((k for k in H5_KEYS if k in keys), keys[0] if len(keys) == 1 else None)
-            if key is None:
-                raise TrebuchetInputError(
-                    f"no DeepLabCut table in this HDF5 file (keys: {', '.join(keys) or 'none'};"
-                    f" expected {' or '.join(H5_KEYS)})")
-            df = store[key]
-    except ImportError:
-        raise TrebuchetInputError(
-            "reading a DeepLabCut .h5 needs the package tables (pip install tables)"
-        ) from None
-    columns = df.columns
-    names = list(columns.names) if isinstance(columns, pd.MultiIndex) else []
+    """Read a DeepLabCut .h5 (pandas' HDF5 table, see the module doc) from its path or bytes,
+    with h5py: nothing in the file is unpickled (:mod:`.pandas_hdf`). Errors leave the file's
+    name to the caller, as the text readers do."""
+    with open_hdf5(source) as f:
+        keys = frame_keys(f)
+        key = next((k for k in H5_KEYS if k in keys), keys[0] if len(keys) == 1 else None)
+        if key is None:
+            raise TrebuchetInputError(
+                f"no DeepLabCut table in this HDF5 file (tables: {', '.join(keys) or 'none'};"
+                f" expected {' or '.join(H5_KEYS)})")
+        table = read_frame(f, key)
+    names = table.names
     if "bodyparts" not in names or "coords" not in names:
-        raise TrebuchetInputError(
-            f"key '{key}' is no DeepLabCut table (column levels: "
+        raise TrebuchetInputError.at(
+            f"key '{key}'", "no DeepLabCut table (column levels: "
             f"{', '.join(str(n) for n in names) or 'none'}; expected scorer, bodyparts, coords)")
     chosen = None
     if "individuals" in names:
-        found = list(dict.fromkeys(v for v in columns.get_level_values("individuals")
-                                   if v != UNIQUE))
+        who = names.index("individuals")
+        found = list(dict.fromkeys(c[who] for c in table.columns if c[who] != UNIQUE))
         chosen = choose_individual(found, individual)
     elif individual is not None:
         raise TrebuchetInputError(
             f"individual={individual!r}, but this is a single-animal DeepLabCut file")
-    frames = np.asarray(df.index, dtype=float)
     seen: dict[str, dict[str, np.ndarray]] = {}
-    for col in columns:
+    for col in table.columns:
         level = dict(zip(names, col, strict=True))
         who = level.get("individuals")
         if who is not None and who not in (chosen, UNIQUE):
             continue
         name = f"{who}/{level['bodyparts']}" if who else str(level["bodyparts"])
-        seen.setdefault(name, {})[str(level["coords"]).lower()] = df[col].to_numpy(float)
+        coord = str(level["coords"]).lower()
+        if coord in ("x", "y", "likelihood") and col not in table.values:
+            raise TrebuchetInputError.at(f"key '{key}'", f"column {'/'.join(col)} holds no "
+                                         "numbers")
+        if col in table.values:
+            seen.setdefault(name, {})[coord] = table.values[col]
     parts: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
     for name, coords in seen.items():
         if "x" not in coords or "y" not in coords:
             raise TrebuchetInputError(f"bodypart '{name}' lacks an x or y column")
         parts[name] = (coords["x"], coords["y"], coords.get("likelihood"))
+    frames = np.asarray(table.index, dtype=float) if table.index.dtype.kind in "fiu" else None
+    if frames is None:
+        raise TrebuchetInputError.at(f"key '{key}'", "its index is not frame numbers "
+                                     f"({table.index.dtype})")
     return keypoint_source("deeplabcut", frames, np.arange(len(frames)) + 1, parts, fps,
                            min_likelihood)
 

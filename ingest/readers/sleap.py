@@ -29,73 +29,86 @@ from pathlib import Path
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.readers.hdf5 import is_hdf5, open_hdf5
 from trebuchet.ingest.readers.keypoints import choose_individual, keypoint_source
+from trebuchet.ingest.readers.limits import MAX_DATASET_BYTES, MAX_ROWS
 from trebuchet.ingest.readers.source import LogSource
 from trebuchet.ingest.readers.table import check_row_lengths, numeric_column, table_lines
 
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 REQUIRED = ("tracks", "node_names")
 
 
-def is_hdf5(path: str | Path) -> bool:
-    """Whether the file starts with the HDF5 signature."""
-    try:
-        with open(path, "rb") as f:
-            return f.read(8) == HDF5_SIGNATURE
-    except OSError:
-        return False
-
-
-def _h5py():
-    try:
-        import h5py
-    except ImportError:
-        raise TrebuchetInputError(
-            "reading an HDF5 file needs the package h5py (pip install h5py)"
-        ) from None
-    return h5py
-
-
-def looks_like_sleap_h5(path: str | Path) -> bool:
+def looks_like_sleap_h5(source: str | Path | bytes) -> bool:
     """An HDF5 file with SLEAP's ``tracks`` and ``node_names`` datasets."""
-    if not is_hdf5(path):
+    if not is_hdf5(source):
         return False
-    try:
-        import h5py
-    except ImportError:
-        return False
-    with h5py.File(path, "r") as f:
+    with open_hdf5(source) as f:
         return all(k in f for k in REQUIRED)
 
 
-def _names(dataset) -> list[str]:
+def _names(f, key: str) -> list[str]:
     """Byte or text strings of a 1-D dataset (empty, or float, when SLEAP had none)."""
-    if dataset.shape == (0,) or dataset.dtype.kind not in "SOU":
+    ds = f[key]
+    if not hasattr(ds, "dtype") or ds.ndim != 1 or ds.shape == (0,) or (
+            ds.dtype.kind not in "SOU"):
         return []
-    return [v.decode() if isinstance(v, bytes) else str(v) for v in dataset[()]]
+    if ds.shape[0] > 100_000:
+        raise TrebuchetInputError.at(f"dataset '{key}'", f"{ds.shape[0]} names: no SLEAP "
+                                     "project has as many")
+    return [v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+            for v in ds[()]]
 
 
-def read_sleap_h5(path: str | Path, fps: float | None, min_likelihood: float,
+def _numbers(f, key: str, ndim: int, layout: str) -> np.ndarray:
+    """A numeric dataset of ``ndim`` dimensions (``layout`` names them), checked for its
+    type and size before it is read."""
+    ds = f[key]
+    if not hasattr(ds, "dtype") or ds.dtype.kind not in "fiu":
+        kind = getattr(getattr(ds, "dtype", None), "name", "a group")
+        raise TrebuchetInputError.at(f"dataset '{key}'", f"holds {kind} values, not numbers "
+                                     f"({layout})")
+    if ds.ndim != ndim:
+        raise TrebuchetInputError.at(f"dataset '{key}'", f"has shape {ds.shape}, expected "
+                                     f"{layout} as SLEAP writes it")
+    size = float(np.prod(ds.shape, dtype=float)) * 8
+    if size > MAX_DATASET_BYTES:
+        raise TrebuchetInputError.at(f"dataset '{key}'", f"has shape {ds.shape}: "
+                                     f"{size / 2**20:.4g} MiB, more than the "
+                                     f"{MAX_DATASET_BYTES >> 20} MiB a log can mean")
+    return np.asarray(ds[()], dtype=float)
+
+
+def read_sleap_h5(source: str | Path | bytes, fps: float | None, min_likelihood: float,
                   individual: str | None = None) -> LogSource:
-    """Read a SLEAP analysis HDF5 (see the module doc). ``path`` is opened here; errors
-    leave its name to the caller, as the text readers do. Rows are numbered frame + 1."""
-    h5py = _h5py()
-    with h5py.File(path, "r") as f:
+    """Read a SLEAP analysis HDF5 (see the module doc) from its path or bytes; errors leave
+    the file's name to the caller, as the text readers do. Rows are numbered frame + 1."""
+    with open_hdf5(source) as f:
         missing = [k for k in REQUIRED if k not in f]
         if missing:
             raise TrebuchetInputError(
                 f"a SLEAP analysis file needs the datasets {', '.join(REQUIRED)} "
                 f"(missing: {', '.join(missing)})")
-        tracks = np.asarray(f["tracks"][()], dtype=float).T     # frames, nodes, 2, tracks
-        scores = (np.asarray(f["point_scores"][()], dtype=float).T
-                  if "point_scores" in f else None)              # frames, nodes, tracks
-        nodes = _names(f["node_names"])
-        names = _names(f["track_names"]) if "track_names" in f else []
-    if tracks.ndim != 4 or tracks.shape[2] != 2 or tracks.shape[1] != len(nodes):
-        raise TrebuchetInputError(
-            f"dataset 'tracks' has shape {tracks.T.shape}, expected (tracks, 2, "
+        layout = "(tracks, 2, nodes, frames)"
+        tracks = _numbers(f, "tracks", 4, layout)
+        scores = (_numbers(f, "point_scores", 3, "(tracks, nodes, frames)")
+                  if "point_scores" in f else None)
+        nodes = _names(f, "node_names")
+        names = _names(f, "track_names") if "track_names" in f else []
+    if tracks.shape[1] != 2 or tracks.shape[2] != len(nodes):
+        raise TrebuchetInputError.at(
+            "dataset 'tracks'", f"has shape {tracks.shape}, expected (tracks, 2, "
             f"{len(nodes)} nodes, frames) as SLEAP writes it")
+    if scores is not None and scores.shape != (tracks.shape[0], tracks.shape[2],
+                                               tracks.shape[3]):
+        raise TrebuchetInputError.at(
+            "dataset 'point_scores'", f"has shape {scores.shape}, not (tracks, nodes, frames) "
+            f"= {(tracks.shape[0], tracks.shape[2], tracks.shape[3])} of 'tracks'")
+    tracks = tracks.T                                            # frames, nodes, 2, tracks
+    scores = None if scores is None else scores.T                # frames, nodes, tracks
     n_frames, _, _, n_tracks = tracks.shape
+    if n_frames > MAX_ROWS:
+        raise TrebuchetInputError.at("dataset 'tracks'", f"{n_frames} frames, more than the "
+                                     f"{MAX_ROWS:,} a log can hold")
     labels = names if names else [""] * n_tracks
     if len(labels) != n_tracks:
         raise TrebuchetInputError(

@@ -10,15 +10,21 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from trebuchet.errors import TrebuchetInputError
+from trebuchet.ingest.readers.limits import MAX_CELL_CHARS, MAX_ROWS, MAX_TEXT_BYTES
+from trebuchet.user_files import read_user_file
 
 #: Cells read as "no value": an empty cell or an explicit not-a-number.
 MISSING_TOKENS = frozenset({"", "nan", "-nan", "na", "n/a", "null", "none"})
+
+#: A number as CSV tools read it: ASCII digits, one decimal point, an exponent.
+DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 
 #: Delimiters tried, in order of preference.
 DELIMITERS = ("\t", ";", ",")
@@ -33,23 +39,32 @@ class Line:
 
 
 def read_text(path: str | Path) -> str:
-    """Return the text of a log file.
+    """Return the text of a log file (a regular file of at most :data:`.limits.MAX_TEXT_BYTES`,
+    see :func:`trebuchet.user_files.read_user_file`), decoded by :func:`decode_text`. A
+    missing, unreadable, special, oversized, empty or binary file is a
+    :class:`TrebuchetInputError` without the file's name (the caller adds it)."""
+    return decode_text(read_user_file(path, "log", MAX_TEXT_BYTES))
+
+
+def decode_text(raw: bytes) -> str:
+    """The text of a log file's bytes.
 
     UTF-8 (with or without BOM) and UTF-16 with BOM are read; anything else falls back
-    to Windows-1252. A missing, unreadable, empty or binary file is a
-    :class:`TrebuchetInputError` naming the file.
+    to Windows-1252. Binary content, UTF-16 that does not decode (an odd number of bytes:
+    a cut file), an empty file and more than :data:`.limits.MAX_ROWS` lines are a
+    :class:`TrebuchetInputError`.
     """
-    p = Path(path)
-    if not p.exists():
-        raise TrebuchetInputError("no such file")
-    if p.is_dir():
-        raise TrebuchetInputError("is a folder, not a log file")
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise TrebuchetInputError(f"cannot be read ({exc.strerror})") from None
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-        text = raw.decode("utf-16")
+        try:
+            text = raw.decode("utf-16")
+        except UnicodeDecodeError as exc:
+            odd = " (an odd number of bytes: the file is cut?)" if len(raw) % 2 else ""
+            raise TrebuchetInputError(
+                f"starts as UTF-16 text (byte-order mark) but byte {exc.start} does not "
+                f"decode{odd}") from None
+        text = text.lstrip("\ufeff")
+        if "\x00" in text[:4096]:
+            raise TrebuchetInputError("is not a text (CSV) file")
     elif b"\x00" in raw[:4096]:
         raise TrebuchetInputError("is not a text (CSV) file")
     else:
@@ -59,6 +74,10 @@ def read_text(path: str | Path) -> str:
             text = raw.decode("cp1252", errors="replace")
     if not text.strip():
         raise TrebuchetInputError("the file is empty")
+    lines = text.count("\n") + 1
+    if lines > MAX_ROWS + 100:
+        raise TrebuchetInputError(f"{lines:,} lines, more than the {MAX_ROWS:,} frames a log "
+                                  "can hold")
     return text
 
 
@@ -92,22 +111,48 @@ def _outside_quotes(line: str) -> str:
 
 
 def split_cells(line: str, delimiter: str) -> list[str]:
-    """Split one line into stripped cells (double quotes respected; ``" "`` = any whitespace)."""
+    """Split one line into stripped cells (double quotes respected; ``" "`` = any whitespace).
+
+    A cell longer than :data:`.limits.MAX_CELL_CHARS` (no number or name is) is a
+    :class:`TrebuchetInputError` (without the row: :func:`table_lines` adds it)."""
     if delimiter == " ":
-        return line.split()
-    return [c.strip() for c in next(csv.reader([line], delimiter=delimiter))]
+        cells = line.split()
+    else:
+        try:
+            cells = [c.strip() for c in next(csv.reader([line], delimiter=delimiter))]
+        except (csv.Error, StopIteration) as exc:
+            raise TrebuchetInputError(_cell_error(line, exc)) from None
+    if any(len(c) > MAX_CELL_CHARS for c in cells):
+        raise TrebuchetInputError(_cell_error(line, None))
+    return cells
+
+
+def _cell_error(line: str, exc: Exception | None) -> str:
+    if exc is None or "field larger" in str(exc):
+        return (f"a cell of more than {MAX_CELL_CHARS:,} characters, which no number or name "
+                "of a log is")
+    return f"cannot be split into cells ({exc})"
 
 
 def table_lines(numbered: list[tuple[int, str]], delimiter: str) -> list[Line]:
-    """Split numbered lines into :class:`Line` objects."""
-    return [Line(n, split_cells(text, delimiter)) for n, text in numbered]
+    """Split numbered lines into :class:`Line` objects; a line that cannot be split is a
+    :class:`TrebuchetInputError` naming its row."""
+    out = []
+    for n, text in numbered:
+        try:
+            out.append(Line(n, split_cells(text, delimiter)))
+        except TrebuchetInputError as exc:
+            raise TrebuchetInputError.at(f"row {n}", exc.message) from None
+    return out
 
 
 def parse_number(cell: str) -> float | None:
     """Return the number in ``cell``; NaN for a missing cell; None if it is not a number.
 
     A decimal comma (``1,25`` or Java's ``1,25E-3``) is accepted: a comma can only be
-    inside a cell when the delimiter is not a comma or the cell is quoted.
+    inside a cell when the delimiter is not a comma or the cell is quoted. Only ASCII
+    decimals are numbers, as CSV tools read them (:data:`DECIMAL`): ``5_0.1`` and digits of
+    other scripts are text, refused where the column is used.
     """
     s = cell.strip().strip('"').strip()
     if s.lower() in MISSING_TOKENS:
@@ -115,10 +160,9 @@ def parse_number(cell: str) -> float | None:
     if "," in s and "." not in s and s.count(",") == 1:
         s = s.replace(",", ".")
     s = s.replace("\u2212", "-")  # a typographic minus sign
-    try:
-        value = float(s)
-    except ValueError:
+    if not DECIMAL.fullmatch(s):  # float() would take '5_0.1', Arabic-Indic or wide digits
         return None
+    value = float(s)
     if math.isinf(value):
         return None
     return value
@@ -137,8 +181,10 @@ def numeric_column(
         cell = line.cells[index] if index < len(line.cells) else ""
         value = parse_number(cell)
         if value is None:
+            hint = ("" if cell.isascii() and "_" not in cell else " (only ASCII digits, a "
+                    "decimal point or comma and an exponent make a number)")
             raise TrebuchetInputError.at(
-                f"row {line.number}, column '{name}'", f"{cell!r} is not a number"
+                f"row {line.number}, column '{name}'", f"{cell!r} is not a number{hint}"
             )
         out[k] = value
     return out

@@ -45,6 +45,12 @@ def frames_to_time(
     if bad.any():
         k = int(np.argmax(bad))
         raise TrebuchetInputError.at(f"row {rows[k]}, column '{label}'", "frame number is empty")
+    far = np.abs(frame) >= MAX_FRAME
+    if far.any():
+        k = int(np.argmax(far))
+        raise TrebuchetInputError.at(
+            f"row {rows[k]}, column '{label}'", f"frame number {frame[k]:.6g} is no frame of "
+            f"a video (at most {MAX_FRAME:,}: over 8 months at 100 fps)")
     frac = np.abs(frame - np.round(frame))
     if (frac > 1e-9).any():
         k = int(np.argmax(frac > 1e-9))
@@ -56,11 +62,13 @@ def frames_to_time(
 
 
 def check_time(t: np.ndarray, rows: np.ndarray, label: str) -> None:
-    """Error for an empty time cell or a time earlier than the row before (naming the row)."""
+    """Error for an empty time cell, a time earlier than the row before (naming the row), and
+    times too large for their steps (:func:`check_precision`)."""
     bad = ~np.isfinite(t)
     if bad.any():
         k = int(np.argmax(bad))
         raise TrebuchetInputError.at(f"row {rows[k]}, column '{label}'", "the time is empty")
+    check_precision(t, label)
     back = np.diff(t) < 0
     if back.any():
         k = int(np.argmax(back)) + 1
@@ -69,6 +77,34 @@ def check_time(t: np.ndarray, rows: np.ndarray, label: str) -> None:
             f"({t[k]:.6g} s after {t[k - 1]:.6g} s on row {rows[k - 1]}); "
             f"a log must be in the order of its frames"
         )
+
+
+#: Frame numbers a video can have (exclusive): 2³¹.
+MAX_FRAME = 2**31
+#: Largest share of a frame step that float64's spacing at the log's times may reach.
+TIME_RESOLUTION = 1e-3
+
+
+def check_precision(t: np.ndarray, label: str) -> None:
+    """Error for times so large that float64 no longer resolves their frames: the spacing
+    of doubles near the largest |t| (s) beyond :data:`TIME_RESOLUTION` of the median step
+    (times offset by 1e15 s are 0.125 s apart at best: the frames of a shot merge)."""
+    if t.size < 2:
+        return
+    largest = float(np.max(np.abs(t)))
+    resolution = float(np.spacing(largest))
+    steps = np.diff(t)
+    steps = steps[steps > 0]
+    step = float(np.median(steps)) if steps.size else 0.0
+    if resolution > TIME_RESOLUTION * step:
+        raise TrebuchetInputError.at(
+            f"column '{label}'", f"times near {largest:.6g} s keep a resolution of only "
+            f"{resolution:.3g} s in 64-bit numbers, "
+            + (f"more than a thousandth of the step between rows ({step:.3g} s)"
+               if resolution < step else "which merges rows" if step > 0 else
+               "and every row has the same time")
+            + ": the column has lost its precision; subtract an offset (e.g. the first "
+            "time) before writing it")
 
 
 #: Frame rates (1/s) a filmed shot can have; outside them the time unit is wrong.

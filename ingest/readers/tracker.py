@@ -56,11 +56,15 @@ def _delimiter(header: str) -> str:
     return " "
 
 
-def _split(line: str, delimiter: str) -> list[str]:
-    """Cells of a Tracker line; for a space delimiter, every space separates (keeps columns)."""
+def _split(line: str, delimiter: str, number: int | None = None) -> list[str]:
+    """Cells of a Tracker line (row ``number`` in errors); for a space delimiter, every
+    space separates (keeps columns)."""
     if delimiter == " ":
         return [c.strip() for c in line.split(" ")]
-    return split_cells(line, delimiter)
+    try:
+        return split_cells(line, delimiter)
+    except TrebuchetInputError as exc:
+        raise TrebuchetInputError.at(f"row {number}", exc.message) from None
 
 
 def looks_like_tracker(numbered: list[tuple[int, str]]) -> bool:
@@ -75,8 +79,8 @@ def looks_like_tracker(numbered: list[tuple[int, str]]) -> bool:
     d = _delimiter(header)
     if not header.endswith(d):
         return False
-    first = split_unit(_split(header, d)[0])[0]
-    names = [c for c in _split(numbered[0][1], d) if c]
+    first = split_unit(_split(header, d, numbered[1][0])[0])[0]
+    names = [c for c in _split(numbered[0][1], d, numbered[0][0]) if c]
     return first in TIME_HEADERS and len(names) >= 1
 
 
@@ -88,10 +92,10 @@ def read_tracker(numbered: list[tuple[int, str]], fps: float | None,
         lines = lines[1:]
     if len(lines) < 2:
         raise TrebuchetInputError("a Tracker export needs a track-name row and a header")
-    (_, name_text), (header_no, header_text) = lines[0], lines[1]
+    (name_no, name_text), (header_no, header_text) = lines[0], lines[1]
     d = _delimiter(header_text.rstrip("\r\n"))
-    names = _split(name_text, d)
-    header = _split(header_text, d)
+    names = _split(name_text, d, name_no)
+    header = _split(header_text, d, header_no)
     while header and not header[-1]:
         header.pop()
     if not header or split_unit(header[0])[0] not in TIME_HEADERS:

@@ -21,9 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from trebuchet.ingest.events.driven_pendulum import driven_pendulum
+from trebuchet.ingest.events.driven_pendulum import MAX_GAP_FRAMES, driven_pendulum
 from trebuchet.ingest.smoothing.result import smoothing_of, with_angle_rows, with_smoothing
-from trebuchet.model.dynamics import counterweight_pendulum_psi_dd
 from trebuchet.model.scene import Scene
 
 __all__ = ["CounterweightContinuation", "continued_counterweight",
@@ -45,6 +44,7 @@ class CounterweightContinuation:
     psi_dd: np.ndarray
     cov: np.ndarray
     start: int
+    gap: float | None = None
 
 
 def continued_counterweight(est: dict[str, np.ndarray], scene: Scene, last: int,
@@ -57,18 +57,15 @@ def continued_counterweight(est: dict[str, np.ndarray], scene: Scene, last: int,
     driven by θ̈ shifted by a drawn multiple of its sd
     (:func:`~trebuchet.ingest.events.driven_pendulum.driven_pendulum`); ``cov_psi``
     (3, 3): the smoother's covariance of (ψ, ψ̇, ψ̈) at that row (SI)."""
-    e, g = scene.engine, scene.g
     t, theta, theta_d, theta_dd, theta_dd_sd = (
         np.asarray(est[c], dtype=float)
         for c in ("t", "theta", "theta_d", "theta_dd", "theta_dd_sd"))
     run = driven_pendulum(
         t, theta, theta_d, theta_dd, last,
         np.array([float(est["psi"][last]), float(est["psi_d"][last])]), cov_psi,
-        lambda th, th_d, th_dd, psi: counterweight_pendulum_psi_dd(th, th_d, th_dd, psi, e,
-                                                                   g, np),
-        theta_dd_sd=theta_dd_sd, seed=seed)
+        "counterweight", scene.engine, scene.g, theta_dd_sd=theta_dd_sd, seed=seed)
     return CounterweightContinuation(run.rows, run.angle, run.rate, run.acc, run.cov,
-                                     run.start)
+                                     run.start, run.gap)
 
 
 def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.ndarray
@@ -101,4 +98,7 @@ def with_continued_counterweight(est: pd.DataFrame, scene: Scene, psi_log: np.nd
             f"{t[rows[-1]]:.4f} s: psi is carried on by the counterweight's pendulum driven "
             "by the smoothed beam (sd at the end "
             f"{np.degrees(np.sqrt(cont.cov[keep][-1, 0, 0])):.2g} deg)")
+    if cont.gap is not None:
+        note += (f", not across the gap in the log's rows after {cont.gap:.4f} s (longer than "
+                 f"{MAX_GAP_FRAMES:g} frames): psi is NaN from there on")
     return with_smoothing(out, smoothing_of(out).noted(note))

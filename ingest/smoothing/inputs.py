@@ -22,7 +22,8 @@ def validated_log(log: pd.DataFrame, min_frames: int) -> tuple[np.ndarray, np.nd
     """Time (n,) and angles (3, n) from ``log``; raises :class:`TrebuchetInputError`.
 
     Checks: a DataFrame with ``t``, ``theta``, ``psi``, ``phi``; numeric; ``t`` finite and
-    strictly increasing; angles finite or NaN (a gap); each angle either untracked (all
+    strictly increasing, without a gap longer than the rest of the log together
+    (:func:`_check_gaps`); angles finite or NaN (a gap); each angle either untracked (all
     NaN) or with at least ``min_frames`` valid frames; at least one tracked.
     """
     if not isinstance(log, pd.DataFrame):
@@ -53,6 +54,7 @@ def validated_log(log: pd.DataFrame, min_frames: int) -> tuple[np.ndarray, np.nd
             f"smooth: column 't', row {i}: time {t[i]:g} s does not increase "
             f"(row {i - 1} has {t[i - 1]:g} s)"
         )
+    _check_gaps(t)
     Z = np.vstack([arrays[a] for a in ANGLES])
     for a, name in enumerate(ANGLES):
         bad = np.flatnonzero(np.isinf(Z[a]))
@@ -66,6 +68,30 @@ def validated_log(log: pd.DataFrame, min_frames: int) -> tuple[np.ndarray, np.nd
     if not np.isfinite(Z).any():
         raise TrebuchetInputError("smooth: columns theta, psi and phi are all empty")
     return t, Z
+
+
+#: A step between two rows may be this many frames (median steps) long whatever the rest.
+GAP_FRAMES = 10
+
+
+def _check_gaps(t: np.ndarray) -> None:
+    """Refuse a step between two rows longer than all the other steps together (and than
+    :data:`GAP_FRAMES` frames): the smoother's scales (the event kicks' and the priors'
+    sizes, the slowest process noise searched) come from the log's duration, which such a
+    gap would set (a last time of 1e9 s in a log of a 2 s shot shrank the kicks by 1e17
+    and the loads after it were 1e22 N), and nothing of a shot lasts across it. A wrong
+    time or frame number, usually."""
+    if t.size < 3:
+        return
+    dt = np.diff(t)
+    i = int(np.argmax(dt))
+    rest = float(t[-1] - t[0]) - float(dt[i])
+    if dt[i] > rest and dt[i] > GAP_FRAMES * float(np.median(dt)):
+        raise TrebuchetInputError(
+            f"smooth: column 't', row {i + 1}: time {t[i + 1]:g} s comes {dt[i]:g} s after "
+            f"row {i} ({t[i]:g} s), longer than all the other rows span together "
+            f"({rest:g} s): no shot lasts across such a gap (a wrong time or frame number?); "
+            "correct or remove the row")
 
 
 def unwrapped_angles(Z: np.ndarray) -> np.ndarray:

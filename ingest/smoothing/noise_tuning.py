@@ -5,8 +5,9 @@ variances ``S`` give the log-likelihood ``-½ Σ (log 2π S + ν²/S)``. Scaling
 ``ρ`` scales ``S`` by ``ρ``, so the measurement noise can be profiled out:
 ``ρ̂ = Σ (ν²/S) / N`` (Harvey 1989, *Forecasting, structural time series models and the
 Kalman filter*, §3.4; the kicks at events are kept fixed, a small approximation).
-All candidates and angles run in one batched filter
-(:func:`~trebuchet.ingest.kalman.batch.batch_kalman_filter`); the maximum on a grid of
+All candidates and angles run in one batched filter that keeps only the likelihood's sums
+(:func:`~trebuchet.ingest.kalman.batch.filter_loglik`; the smoother of a chosen candidate
+is run again on its own, :func:`grid_filter`); the maximum on a grid of
 ``log10 λ`` is refined by a parabola through the three best points.
 
 docs/background.md ("Differentiating video angles"): the maximum-likelihood ``q`` with the cutoff
@@ -19,7 +20,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from trebuchet.ingest.kalman.batch import FilterResult, StepModel, batch_kalman_filter
+from trebuchet.ingest.kalman.batch import (
+    FilterResult,
+    StepModel,
+    batch_kalman_filter,
+    filter_loglik,
+)
 
 
 @dataclass(frozen=True)
@@ -103,8 +109,7 @@ def maximum_likelihood_noise(
     q_given: np.ndarray,
     settings: NoiseSearch = NoiseSearch(),
     shape: np.ndarray | None = None,
-    store: bool = False,
-) -> tuple[list[NoiseEstimate], FilterResult]:
+) -> list[NoiseEstimate]:
     """Maximum-likelihood ``λ = q/r²`` and ``r²`` for each of ``A`` angles.
 
     ``z``, ``valid``, ``lik_weight`` (A, n); ``grid`` candidate ``λ``; ``r2_ref`` (A,) the
@@ -114,32 +119,18 @@ def maximum_likelihood_noise(
     ``r²`` is profiled out; with ``r`` given ``λ`` is searched with ``r`` fixed; with ``q``
     given the grid runs over ``r² = q/λ``. ``shape`` (A, n): the process noise of each
     step relative to ``λ`` (default 1 everywhere; :func:`jerk_noise_shape`), so that
-    ``λ`` is then the scale of that profile. Also returns the batched filter's result
-    (series ``a * len(grid) + j`` for angle ``a`` and ``grid[j]``, run with ``r2_ref``;
-    with ``store`` the histories a smoother needs).
+    ``λ`` is then the scale of that profile. The filter of angle ``a`` at ``grid[j]``
+    (run with ``r2_ref``) is :func:`grid_filter` ``(…, grid[j] * r2_ref[a], …)``.
     """
     A = z.shape[0]
     m = grid.size
     k = steps.k
     rep = np.repeat(np.arange(A), m)
-    lam = np.tile(grid, A) * r2_ref[rep]
-    if shape is not None:
-        lam = lam[:, None] * np.asarray(shape, float)[rep]
-    filt = batch_kalman_filter(
-        z[rep],
-        valid[rep],
-        steps,
-        lam,
-        kick[rep],
-        r2_ref[rep],
-        x0[rep],
-        P0[rep],
-        store=store,
-    )
-    log_s, nu2_s, cnt = filt.loglik_sums(lik_weight[rep])
-    log_s = log_s.reshape(A, m)
-    nu2_s = nu2_s.reshape(A, m)
-    cnt = cnt.reshape(A, m)
+    sums = filter_loglik(z, valid, lik_weight, steps, np.tile(grid, A) * r2_ref[rep],
+                         kick[rep], r2_ref[rep], x0[rep], P0[rep], src=rep, shape=shape)
+    log_s = sums.log_s.reshape(A, m)
+    nu2_s = sums.nu2_s.reshape(A, m)
+    cnt = sums.count.reshape(A, m)
     out = []
     x = np.log10(grid)
     for a in range(A):
@@ -167,7 +158,18 @@ def maximum_likelihood_noise(
         if np.isfinite(q_given[a]):
             lam_use = lam_ml
         out.append(NoiseEstimate(lam_ml, lam_use, r2, ll_best, j in (0, m - 1)))
-    return out, filt
+    return out
+
+
+def grid_filter(z: np.ndarray, valid: np.ndarray, steps: StepModel, lam: np.ndarray,
+                r2: np.ndarray, kick: np.ndarray, x0: np.ndarray, P0: np.ndarray,
+                shape: np.ndarray | None = None) -> FilterResult:
+    """The filter of candidates chosen from a search of :func:`maximum_likelihood_noise`
+    with the histories a smoother needs, one per angle of ``z`` (A, n): ``lam`` (A,) each
+    one's ``q/r²`` times the variance ``r2`` (A,) it ran with (the search's
+    ``grid[j] * r2_ref[a]``, the same product: the same filter to the last bit), its
+    ``shape`` (A, n) if any; ``kick``, ``x0``, ``P0`` per angle."""
+    return batch_kalman_filter(z, valid, steps, lam, kick, r2, x0, P0, store=True, shape=shape)
 
 
 @dataclass(frozen=True)
@@ -228,12 +230,10 @@ def piecewise_noise(
     edge = np.zeros((A, P_count), bool)
     for p in range(P_count):
         lo, hi = int(bounds[p]), int(bounds[p + 1])
-        filt = batch_kalman_filter(
-            z[rep, lo:hi], valid[rep, lo:hi], steps.stretch(lo, hi), lam_grid * r2[rep], kick[rep],
-            r2[rep], x, P,
-        )
-        log_s, nu2_s, _ = filt.loglik_sums(lik_weight[rep, lo:hi])
-        ll = -0.5 * (log_s + nu2_s).reshape(A, m)
+        filt = filter_loglik(z[:, lo:hi], valid[:, lo:hi], lik_weight[:, lo:hi],
+                             steps.stretch(lo, hi), lam_grid * r2[rep], kick[rep], r2[rep], x,
+                             P, src=rep)
+        ll = -0.5 * (filt.log_s + filt.nu2_s).reshape(A, m)
         ll = ll - 0.5 * (offsets / settings.piece_prior_decades) ** 2
         if max_decades is not None:
             ll = np.where(offsets > max_decades[p] + 1e-9, -np.inf, ll)

@@ -167,6 +167,7 @@ def smooth(
     if p.shaped:
         fit = shaped_noise(p, fit, nearest, scan="release" not in given,
                             released=fit.rel_s is not None)
+    del nearest  # its histories (n, A, k, k): not held through the bands
 
     xs, Ps = fit.sm.x[:, :p.A], fit.sm.P[:, :p.A]
     jump_gain, jump_count = jump_profile(fit.steps.G, p.kick, fit.sm.r[:, :p.A],

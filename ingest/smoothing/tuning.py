@@ -24,6 +24,7 @@ from trebuchet.ingest.kalman.batch import (
 )
 from trebuchet.ingest.smoothing.noise_tuning import (
     NoiseEstimate,
+    grid_filter,
     jerk_noise_shape,
     maximum_likelihood_noise,
     piecewise_noise,
@@ -54,17 +55,18 @@ def tune(p: SmoothingProblem, steps: StepModel, grid: np.ndarray, store: bool = 
             est[a] = NoiseEstimate(lam, lam, float(p.r2_given[a]), np.nan, False)
     nearest = None
     if need:
-        found, filt = maximum_likelihood_noise(
+        found = maximum_likelihood_noise(
             p.Z[need], p.valid[need], p.weight[need], steps, grid, p.r2_ref[need],
             p.kick[need], p.x0[need], p.P0[need], p.r2_given[need], p.q_given[need],
-            p.settings.noise, store=store,
+            p.settings.noise,
         )
         for a, e in zip(need, found, strict=True):
             est[a] = e
         if store and all(a in need for a in free):
-            nearest = filt.series(np.array([
-                need.index(a) * grid.size
-                + int(np.argmin(np.abs(np.log(grid / est[a].lam_ml)))) for a in free]))
+            near = np.array([grid[int(np.argmin(np.abs(np.log(grid / est[a].lam_ml))))]
+                             for a in free])
+            nearest = grid_filter(p.Z[free], p.valid[free], steps, near * p.r2_ref[free],
+                                  p.r2_ref[free], p.kick[free], p.x0[free], p.P0[free])
     return est, nearest  # type: ignore[return-value]
 
 
@@ -242,10 +244,10 @@ def local_noise(p: SmoothingProblem, fit: TuningState, acc: np.ndarray) -> Tunin
     half = int(np.ceil(settings.local_scale_decades / step))
     offsets = step * np.arange(-half - shift, half + 1)
     r2 = np.array([est[a].r2 for a in free])
-    found, filt = maximum_likelihood_noise(
-        p.Z[free], valid[free], p.weight[free], steps, 10.0**offsets, r2, p.kick[free],
-        p.x0[free], p.P0[free], r2, np.full(len(free), np.nan), settings.noise, shape=shape,
-        store=True)
+    scales = 10.0**offsets
+    found = maximum_likelihood_noise(
+        p.Z[free], valid[free], p.weight[free], steps, scales, r2, p.kick[free],
+        p.x0[free], p.P0[free], r2, np.full(len(free), np.nan), settings.noise, shape=shape)
     est = list(est)
     lam_use = np.array([[e.lam] for e in est]) * np.ones((A, n))
     lam_ml = lam_ml.copy()
@@ -254,12 +256,13 @@ def local_noise(p: SmoothingProblem, fit: TuningState, acc: np.ndarray) -> Tunin
         top = int(np.clip(np.round((np.log10(e.lam_ml) - offsets[0]) / step), 0,
                           offsets.size - 1))
         use = max(top - shift, 0)
-        pick.append(j * offsets.size + use)
+        pick.append(use)
         est[a] = NoiseEstimate(e.lam_ml * ref[j], 10.0 ** offsets[use] * ref[j], e.r2,
                                e.loglik, e.at_edge or top - shift < 0)
         lam_ml[a] = e.lam_ml * shape[j]
         lam_use[a] = 10.0 ** offsets[use] * shape[j]
-    picked = filt.series(np.array(pick))
+    picked = grid_filter(p.Z[free], valid[free], steps, scales[pick] * r2, r2, p.kick[free],
+                         p.x0[free], p.P0[free], shape=shape)
     return replace(fit, est=est, lam_use=lam_use, lam_ml=lam_ml, filt=picked,
                    sm=backward_smoother(steps, picked, valid[free]))
 

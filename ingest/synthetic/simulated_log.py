@@ -11,6 +11,7 @@ pose, no motion, phase 0).
 
 from __future__ import annotations
 
+import math
 import tomllib
 from importlib import resources
 
@@ -108,7 +109,7 @@ def empty_sling_angle(scene: Scene, t_shot: np.ndarray, release: float
 
     def rates(_t, y):
         th, ps, th_d, ps_d, ph, ph_d = y
-        th_dd, ps_dd = dyn.accelerations_phase3(th, ps, th_d, ps_d, e, g)
+        th_dd, ps_dd = dyn.phase_motion(3, [th, ps, th_d, ps_d], e, g, 0.0, math)[6:8]
         a_spigot = e.L1 * rotated_acceleration(np.array([th]), np.array([th_d]),
                                                np.array([th_dd]))
         perp = unit_perp(np.array([ph]))

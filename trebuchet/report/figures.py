@@ -54,7 +54,7 @@ SHARE_MIN_FRACTION = 0.1
 
 COLOURS = {"S": "#2ca02c", "S_perp": "#98df8a", "H": "#1f77b4", "CM": "#8c564b",
            "R": "#d62728", "R_x": "#ff7f0e", "M": "#1f77b4", "m": "#2ca02c", "beam": "#8c564b",
-           "total": "black"}
+           "total": "black", "pivot": "#9467bd", "hinge": "#e377c2"}
 
 
 def _frames(predicted: Frame, measured: Frame) -> list[tuple[pd.DataFrame, bool]]:
@@ -360,20 +360,26 @@ def fig_energy(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
     """Rates of work (kW, upper row) and mechanical energy gained since t = 0 (kJ, lower
     row) for the counterweight, the beam and the projectile (the paper's Figs. "Power" and
     "Power_Beam"). Crosses on the projectile's power at 10, 50 and 90 % of its energy at
-    release; the beam's peak energy is given as a share of the scene's ΔU (J)."""
+    release; the beam's peak energy is given as a share of the scene's ΔU (J). Where the
+    scene has friction in its bearings, a fourth column: the heat made at pivot and hinge
+    (``P_loss_*``, ``E_loss_*``) with its share of ΔU at the release."""
     frames = _frames(predicted, measured)
+    friction = any("E_loss_pivot" in frame.columns for frame, _ in frames)
+    n = 4 if friction else 3
     fig, axes = _new_figure("Rates of work and energies (full points: lift-off, release)", 2,
-                            3, (14, 7.5))
+                            n, (4.7 * n, 7.5))
     parts = [("M", "counterweight"), ("beam", "beam"), ("m", "projectile")]
     for j, (key, name) in enumerate(parts):
         c = COLOURS[key]
         _time_panel(axes[j], frames, [(f"P_{key}", f"P_{key}", c)], scale=1e3,
                     ylabel="rate of work (kW)")
-        _panel_title(axes[j], "ace"[j], f"on the {name}")
-        _time_panel(axes[3 + j], frames, [(f"E_{key}", f"E_{key}", c)], scale=1e3,
+        _panel_title(axes[j], "aceg"[j], f"on the {name}")
+        _time_panel(axes[n + j], frames, [(f"E_{key}", f"E_{key}", c)], scale=1e3,
                     ylabel="energy gained (kJ)",
                     legend_at={"M": "lower left", "beam": "lower right"}.get(key, "upper left"))
-        _panel_title(axes[3 + j], "bdf"[j], f"of the {name}")
+        _panel_title(axes[n + j], "bdfh"[j], f"of the {name}")
+    if friction:
+        _friction_panels(axes[3], axes[n + 3], frames, scene.delta_U)
     for k, (frame, _) in enumerate(frames):
         for tc in _crossing_times(frame, "E_m", (0.1, 0.5, 0.9)):
             p = np.interp(tc, shot_time(frame), frame["P_m"].to_numpy(dtype=float))
@@ -383,12 +389,33 @@ def fig_energy(predicted: Frame, measured: Frame, scene: Scene) -> Figure:
         if k == 0 and delta_u and np.isfinite(e_beam).any():  # one note: the first frame's
             i = int(np.nanargmax(e_beam))
             t_i = shot_time(frame)[i]
-            axes[4].annotate(f"peak {e_beam[i] / 1e3:.1f} kJ = {e_beam[i] / delta_u:.0%} of "
+            axes[n + 1].annotate(f"peak {e_beam[i] / 1e3:.1f} kJ = {e_beam[i] / delta_u:.0%} of "
                              f"ΔU ({delta_u / 1e3:.0f} kJ)", (t_i * 1e3, e_beam[i] / 1e3),
                              textcoords="offset points", xytext=(-150, -16), fontsize="small")
     axes[2].plot([], [], "x", color="black", label="10, 50, 90 % of E_m at release")
     legend(axes[2])
     return fig
+
+
+def _friction_panels(power: Axes, energy: Axes, frames: list[tuple[pd.DataFrame, bool]],
+                     delta_u: float) -> None:
+    """The heat made by friction at pivot and hinge: loss powers (kW) and energies (kJ), the
+    total at the release as a share of ΔU (J)."""
+    series = [(f"{q}_loss_{j}", f"{q}_loss_{j}", COLOURS[j]) for j in ("pivot", "hinge")
+              for q in ("P",)]
+    _time_panel(power, frames, series, scale=1e3, ylabel="heat made (kW)")
+    _panel_title(power, "g", "lost to friction")
+    _time_panel(energy, frames, [(c.replace("P_", "E_"), label.replace("P_", "E_"), colour)
+                                 for c, label, colour in series], scale=1e3,
+                ylabel="heat made (kJ)", legend_at="upper left")
+    _panel_title(energy, "h", "lost to friction since t = 0")
+    frame = frames[0][0]
+    lost = [event_values(frame, f"E_loss_{j}").get("release") for j in ("pivot", "hinge")]
+    if delta_u and all(v is not None for v in lost):
+        total = lost[0][1] + lost[1][1]
+        energy.annotate(f"together {total / 1e3:.3g} kJ = {total / delta_u:.1%} of ΔU\n"
+                        "by the release", (lost[0][0] * 1e3, max(lost[0][1], lost[1][1]) / 1e3),
+                        textcoords="offset points", xytext=(-150, -40), fontsize="small")
 
 
 FIGURES: dict[str, Callable[[Frame, Frame, Scene], Figure]] = {

@@ -77,11 +77,17 @@ def peak_table(frame: pd.DataFrame, scene: Scene) -> pd.DataFrame:
     extreme("P_M", "least power on counterweight P_M", 1e3, "kW", "W", how="min")
     extreme("E_beam", "greatest beam energy E_beam", 1e3, "kJ", "J")
     at_release("E_m", "projectile energy E_m at release", 1e3, "kJ", "J")
+    at_release("E_loss_pivot", "heat made at the pivot E_loss_pivot by release", 1e3, "kJ",
+               "J")
+    at_release("E_loss_hinge", "heat made at the hinge E_loss_hinge by release", 1e3, "kJ",
+               "J")
     delta_u = scene.delta_U
+    shares = ("greatest beam energy E_beam", "projectile energy E_m at release",
+              "heat made at the pivot E_loss_pivot by release",
+              "heat made at the hinge E_loss_hinge by release")
     if delta_u:
         for r in list(rows):
-            if r["quantity"] in ("greatest beam energy E_beam", "projectile energy E_m at "
-                                 "release"):
+            if r["quantity"] in shares:
                 rows.append({"quantity": f"{r['quantity']} / ΔU",
                              "value": 100.0 * float(r["value_SI"]) / delta_u, "unit": "%",
                              "t_ms": r["t_ms"], "value_SI": float(r["value_SI"]) / delta_u,

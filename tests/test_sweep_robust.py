@@ -1,0 +1,320 @@
+"""A sweep survives its workers: a worker killed (kill -9) costs the design it was running, a
+design over its time or memory budget is stopped, a killed sweep keeps its finished rows for
+--resume, and a Dask cluster without workers ends the sweep instead of hanging it."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from trebuchet.errors import TrebuchetInputError
+from trebuchet.model import sweep as sweep_module
+from trebuchet.model.sweep import Budget, SimulationOptions, sweep
+from trebuchet.model.sweep_journal import journal_path, open_journal
+
+from .conftest import HORSDAL
+
+GRID = {"engine.M": [15000.0, 17000.0, 19100.0, 21000.0],
+        "release.velocity_angle_deg": [35.0, 45.0]}
+FAST = SimulationOptions(rtol="fast")
+PARENT = os.getpid()
+
+
+@pytest.fixture(scope="module")
+def serial(horsdal) -> pd.DataFrame:
+    return sweep(horsdal, GRID, workers=1, progress=False, options=FAST)
+
+
+def _sabotage(monkeypatch, victim: int, act) -> None:
+    """Make design ``victim`` run ``act()`` in a worker process (never in this process)."""
+    real = sweep_module.evaluate_design
+
+    def evaluate(base, item, **kwargs):
+        if item[0] == victim and os.getpid() != PARENT:
+            act()
+        return real(base, item, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "evaluate_design", evaluate)
+
+
+def _others_equal(table: pd.DataFrame, serial: pd.DataFrame, victim: int) -> None:
+    keep = table["design"] != victim
+    pd.testing.assert_frame_equal(table[keep].reset_index(drop=True),
+                                  serial[keep].reset_index(drop=True))
+
+
+def test_killed_worker_costs_one_design(monkeypatch, horsdal, serial):
+    _sabotage(monkeypatch, 5, lambda: os.kill(os.getpid(), signal.SIGKILL))
+    table = sweep(horsdal, GRID, workers=2, progress=False, options=FAST)
+    lost = table.iloc[5]
+    assert lost["status"] == "failed"
+    assert lost["error"].startswith("its worker process died (killed by SIGKILL)")
+    assert np.isnan(lost["range"])
+    _others_equal(table, serial, 5)
+
+
+def test_design_over_time_budget_is_stopped(monkeypatch, horsdal, serial):
+    _sabotage(monkeypatch, 2, lambda: time.sleep(60))
+    t0 = time.monotonic()
+    table = sweep(horsdal, GRID, workers=2, progress=False, options=FAST,
+                  budget=Budget(seconds=1.0))
+    assert time.monotonic() - t0 < 20
+    slow = table.iloc[2]
+    assert slow["status"] == "over_budget" and "time budget" in slow["error"]
+    _others_equal(table, serial, 2)
+
+
+def test_design_over_memory_budget_is_stopped(monkeypatch, horsdal, serial):
+    """A design that allocates 4 GiB in a worker allowed 256 MiB: its row says so, the
+    machine's memory is not touched (the worker's address space is capped)."""
+    from trebuchet.model import sweep_design
+
+    real = sweep_design.shot_figures
+
+    def figures(scene, **kwargs):
+        if scene.source == "design 6" and os.getpid() != PARENT:
+            np.ones(2**29)
+        return real(scene, **kwargs)
+
+    monkeypatch.setattr(sweep_design, "shot_figures", figures)
+    table = sweep(horsdal, GRID, workers=2, progress=False, options=FAST,
+                  budget=Budget(memory=256 * 2**20))
+    big = table.iloc[6]
+    assert big["status"] == "over_budget" and "memory budget" in big["error"]
+    _others_equal(table, serial, 6)
+
+
+def test_bad_budget_refused(horsdal):
+    with pytest.raises(TrebuchetInputError, match="time budget"):
+        sweep(horsdal, GRID, progress=False, budget=Budget(seconds=0.0))
+    with pytest.raises(TrebuchetInputError, match="memory budget"):
+        sweep(horsdal, GRID, progress=False, budget=Budget(memory=1000))
+
+
+# --------------------------------------------------------------------------- journal
+
+
+def test_journal_resume_runs_only_the_rest(tmp_path, horsdal, serial, monkeypatch):
+    log = tmp_path / "s.csv.partial"
+    first = sweep(horsdal, {"engine.M": GRID["engine.M"][:2],
+                            "release.velocity_angle_deg": [35.0, 45.0]}, workers=1,
+                  progress=False, options=FAST)
+    # a journal of the full grid holding its first four rows, the last cut by a kill
+    columns = list(serial.columns)
+    digest = sweep_module.sweep_digest(horsdal.to_dict(), sweep_module.check_grid(GRID),
+                                       tuple(sweep_module.SUMMARY_COLUMNS), FAST)
+    journal, rows = open_journal(log, digest, columns, resume=False)
+    assert rows == []
+    journal.append(first.to_dict("records"))
+    journal.close()
+    with open(log, "a") as f:
+        f.write("4,17000.0,35.0,ok,,0.3")  # a line cut short
+    ran = []
+    real = sweep_module.evaluate_design
+    monkeypatch.setattr(sweep_module, "evaluate_design",
+                        lambda base, item, **kw: ran.append(item[0]) or real(base, item, **kw))
+    with pytest.raises(TrebuchetInputError, match="--resume"):
+        sweep(horsdal, GRID, workers=1, progress=False, options=FAST, journal=log)
+    table = sweep(horsdal, GRID, workers=1, progress=False, options=FAST, journal=log,
+                  resume=True)
+    assert ran == [4, 5, 6, 7]
+    pd.testing.assert_frame_equal(table, serial)
+    assert len(log.read_text().splitlines()) == 2 + 8  # the cut line is gone
+
+
+def test_journal_of_another_sweep_refused(tmp_path, horsdal):
+    log = tmp_path / "s.csv.partial"
+    sweep(horsdal, {"engine.M": [19100.0]}, workers=1, progress=False, options=FAST,
+          journal=log)
+    with pytest.raises(TrebuchetInputError, match="another sweep"):
+        sweep(horsdal, {"engine.M": [20000.0]}, workers=1, progress=False, options=FAST,
+              journal=log, resume=True)
+
+
+# --------------------------------------------------------------------------- the command line
+
+GRID_ARGS = ["--grid", "engine.M=15000:22000:20", "--grid",
+             "release.velocity_angle_deg=30:50:10", "--accuracy", "fast", "--quiet"]  # 200
+#: The command line with every design slowed by TB_TEST_DELAY s, so that a test can act
+#: while it runs.
+_SLOW_CLI = """
+import os, sys, time
+from trebuchet import cli
+from trebuchet.model import sweep
+real, delay = sweep.evaluate_design, float(os.environ["TB_TEST_DELAY"])
+def slow(base, item, **kw):
+    time.sleep(delay)
+    return real(base, item, **kw)
+sweep.evaluate_design = slow
+sys.exit(cli.main(sys.argv[1:]))
+"""
+
+
+def _cli(args: list[str], delay: float = 0.0) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", _SLOW_CLI, "sweep", str(HORSDAL), *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "TB_TEST_DELAY": str(delay)})
+
+
+def _wait_for_rows(journal: Path, n: int, proc: subprocess.Popen, timeout: float = 60) -> None:
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if journal.is_file() and len(journal.read_bytes().splitlines()) >= n + 2:
+            return
+        if proc.poll() is not None:
+            pytest.fail(f"the sweep ended early: {proc.communicate()}")
+        time.sleep(0.02)
+    pytest.fail("no rows came")
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        text = Path(f"/proc/{pid}/task/{pid}/children").read_text()
+    except OSError:
+        pytest.skip("no /proc children list here")
+    return [int(c) for c in text.split()]
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="kills a worker found in /proc")
+def test_cli_worker_killed_sweep_goes_on(tmp_path):
+    out = tmp_path / "sweep.csv"
+    proc = _cli([*GRID_ARGS, "-o", str(out), "--workers", "2"], delay=0.01)
+    _wait_for_rows(journal_path(out), 20, proc)
+    workers = _children(proc.pid)
+    assert workers, "no worker processes"
+    os.kill(workers[0], signal.SIGKILL)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 0, stderr
+    assert "Traceback" not in stderr
+    table = pd.read_csv(out, keep_default_na=False, na_values=[""])
+    assert sorted(table["design"]) == list(range(200))
+    failed = table[table["status"] == "failed"]
+    assert len(failed) <= 1 and (table["status"] == "ok").sum() >= 199
+    assert all(e.startswith("its worker process died") for e in failed["error"])
+    assert "failed" in stdout or failed.empty
+    assert not journal_path(out).exists()
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="kill -9 of the sweep")
+def test_cli_killed_sweep_resumes(tmp_path, capsys):
+    out = tmp_path / "sweep.csv"
+    proc = _cli([*GRID_ARGS, "-o", str(out), "--workers", "1"], delay=0.01)
+    _wait_for_rows(journal_path(out), 40, proc)
+    proc.kill()
+    proc.communicate()
+    assert not out.exists()
+    kept = pd.read_csv(journal_path(out), comment="#", keep_default_na=False, na_values=[""])
+    assert len(kept) >= 40
+    from trebuchet import cli
+
+    assert cli.main(["sweep", str(HORSDAL), *GRID_ARGS, "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--resume" in err and err.count("\n") == 1 and not out.exists()
+    assert cli.main(["sweep", str(HORSDAL), *GRID_ARGS, "-o", str(out), "--resume"]) == 0
+    table = pd.read_csv(out, keep_default_na=False, na_values=[""])
+    assert list(table["design"]) == list(range(200))
+    assert (table["status"] == "ok").all()
+    merged = table.set_index("design").loc[kept["design"]]
+    pd.testing.assert_frame_equal(merged.reset_index()[kept.columns], kept, check_exact=True)
+    assert not journal_path(out).exists()
+
+
+# --------------------------------------------------------------------------- Dask
+
+
+def test_dask_without_workers_ends(horsdal):
+    """A cluster whose workers are all gone (here: none ever came) gives its designs back as
+    failed after ``lost_after`` s, instead of waiting for ever."""
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=0, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        t0 = time.monotonic()
+        table = sweep(horsdal, GRID, executor=client, progress=False, options=FAST,
+                      lost_after=1.0)
+    assert time.monotonic() - t0 < 15
+    assert (table["status"] == "failed").all() and len(table) == 8
+    assert table["error"].str.startswith("no Dask worker left").all()
+    assert math.isnan(table["range"].iloc[0])
+
+
+def test_dask_workers_gone_mid_sweep_keeps_what_finished(horsdal, monkeypatch):
+    """Every worker of the cluster closed while the sweep runs: the rows finished before are
+    kept, the others come back failed after ``lost_after`` s, and the sweep ends."""
+    import threading
+
+    distributed = pytest.importorskip("dask.distributed")
+    started = threading.Event()
+    real = sweep_module.evaluate_design
+
+    def slow(base, item, **kwargs):
+        if item[0] >= 2:
+            started.set()
+            time.sleep(0.5)
+        return real(base, item, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "evaluate_design", slow)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        out: dict = {}
+        run = threading.Thread(target=lambda: out.update(table=sweep(
+            horsdal, GRID, executor=client, progress=False, options=FAST, lost_after=1.0)))
+        run.start()
+        assert started.wait(30)
+        time.sleep(0.3)  # the first chunk's rows reach the client
+        cluster.scale(0)
+        run.join(60)
+        assert not run.is_alive(), "the sweep hangs"
+    table = out["table"]
+    assert len(table) == 8 and (table["status"].iloc[:2] == "ok").all()
+    gone = table.iloc[2:]
+    assert (gone["status"] == "failed").all()
+    assert gone["error"].str.startswith(("no Dask worker left", "its worker process died")).all()
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="finds the workers in /proc")
+def test_cli_ctrl_c_keeps_the_journal_and_stops_the_workers(tmp_path):
+    out = tmp_path / "sweep.csv"
+    proc = _cli([*GRID_ARGS, "-o", str(out), "--workers", "2"], delay=0.01)
+    _wait_for_rows(journal_path(out), 20, proc)
+    workers = _children(proc.pid)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and stderr.strip() == "trebuchet: interrupted"
+    assert not out.exists() and journal_path(out).is_file()
+    time.sleep(0.5)
+    assert not [pid for pid in workers if Path(f"/proc/{pid}").exists()
+                and "Z" not in Path(f"/proc/{pid}/stat").read_text().split()[2]]
+
+
+def test_dask_design_over_its_time_budget(horsdal, monkeypatch):
+    """On a cluster a design over its time budget is flagged and its chunk cancelled; the
+    sweep ends without waiting for it."""
+    distributed = pytest.importorskip("dask.distributed")
+    _sabotage_threads = sweep_module.evaluate_design
+
+    def slow(base, item, **kwargs):
+        if item[0] == 7:
+            time.sleep(5.0)
+        return _sabotage_threads(base, item, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "evaluate_design", slow)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        t0 = time.monotonic()
+        table = sweep(horsdal, GRID, executor=client, progress=False, options=FAST,
+                      budget=Budget(seconds=0.3))
+        assert time.monotonic() - t0 < 4.5
+    assert table["status"].iloc[7] == "over_budget" and "Dask" in table["error"].iloc[7]
+    assert (table["status"].iloc[:6] == "ok").all()
