@@ -41,7 +41,7 @@ from trebuchet.ingest.events.release_sources import (
     release_without_track_end,
 )
 from trebuchet.ingest.events.sling_continuation import continued_sling, release_horizon
-from trebuchet.ingest.events.stone_flight import points_stone_release
+from trebuchet.ingest.events.stone_flight import StoneRelease, points_stone_release
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.reconstruct_options import (
     ReconstructOptions,
@@ -224,6 +224,9 @@ def lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFram
     points = plane if plane is not None else None if info is None else info.points
     stone = (None if points is None
              else points_stone_release(points, scene, float(t[last])))
+    if (stone is None or stone.time is None) and info is not None \
+            and info.leaves_sling is not None and info.leaves_sling[0] == track_end[0]:
+        stone = _seen_leaving(info, track_end)
     end = TrackEnd(track_end[0], track_end[1], float(t[last]), float(t[last + 1]),
                    float(np.median(np.diff(t))), stone_held=_stone_held(info, float(t[last]),
                                                                         float(t[last + 1])))
@@ -253,6 +256,18 @@ def lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFram
     fit = smoothing_of(again).with_source("release", choice.source).noted(choice.note,
                                                                           choice.warning)
     return SmoothedShot(with_smoothing(again, fit), choice.sd, choice)
+
+
+def _seen_leaving(info, track_end: tuple[float, float]) -> StoneRelease:
+    """The stone seen leaving its sling's circle where ``read_log`` cut φ
+    (``ReadLog.leaves_sling``: its time and sd, s) as a stone source of the arbitration;
+    its frames of flight are the stone's tracked positions after the cut."""
+    t = np.asarray(info.points["t"], dtype=float)
+    x = np.asarray(info.points.get("projectile_x", np.full(t.size, np.nan)), dtype=float)
+    after = np.isfinite(x) & (t > track_end[0])
+    return StoneRelease(float(track_end[0]), float(track_end[1]), float("nan"), float("inf"),
+                        int(after.sum()), float(track_end[0]),
+                        "the tracked stone leaves its sling's circle")
 
 
 #: s: a lost track's release is sought again with the sling's track cut this much earlier

@@ -27,7 +27,7 @@ def test_another_engines_log_is_refused_naming_the_scene_and_the_mismatch(tmp_pa
     100 kg engine before issue 26."""
     line = _refused(capsys, ["forces", str(BACKYARD_LOG), "--scene", str(HORSDAL), "-o",
                              str(tmp_path / "loads.csv")],
-                    "backyard_240fps.csv", "horsdal_large.toml", "0.79×", "1.62×",
+                    "backyard_240fps.csv", "horsdal_large.toml", "0.78×", "1.37×",
                     "is the scene the engine filmed?")
     assert "starts with its beam at -45.0°" in line
     assert not (tmp_path / "loads.csv").exists()
