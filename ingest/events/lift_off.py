@@ -100,33 +100,31 @@ class LiftOffChoice:
 
 def lift_off_choice(force: float, force_sd: float, stone: float | None, stone_sd: float,
                     agreement_sd: float = 2.0) -> LiftOffChoice:
-    """Lift-off from the normal force's zero (``force``, ``force_sd``, s) and the stone's
-    departure from the trough (``stone``, ``stone_sd``, s; None: not seen,
-    :mod:`.trough_departure`): their inverse-variance mean where they agree within
-    ``agreement_sd`` sd of their difference; else that mean with an sd that covers both
-    (the release's rule, :func:`~.release_sources.covering_sd`) and a warning."""
+    """Lift-off from the normal force's zero (``force``, ``force_sd``, s), checked by the
+    stone's departure from the trough (``stone``, ``stone_sd``, s; None: not seen,
+    :mod:`.trough_departure`): the normal force's time stands; where the two disagree
+    beyond ``agreement_sd`` sd of their difference its sd widens to cover the stone's
+    (the release's rule, :func:`~.release_sources.covering_sd`) and a warning says so.
+    Not their mean: on the video bench the stone's departure came 1.6–4 frames early
+    where the normal force was within half a frame (a cubic rise out of the trough is slow,
+    and a camera model a few mm off across the trough shifts it), and averaging the two
+    where a gap had widened the force's sd moved lift-off 2.6 frames early."""
     source = "trough normal force reaches zero"
     if stone is None or not (np.isfinite(stone_sd) and stone_sd > 0):
         return LiftOffChoice(force, force_sd, source)
-    if not (np.isfinite(force_sd) and force_sd > 0):
-        force_sd = stone_sd
-    w_f, w_s = 1.0 / force_sd**2, 1.0 / stone_sd**2
-    when = (w_f * force + w_s * stone) / (w_f + w_s)
-    sd = float(1.0 / np.sqrt(w_f + w_s))
-    both = float(np.hypot(force_sd, stone_sd))
-    said = (f"the trough's normal force reaches zero at {force:.4f} s (sd "
-            f"{1e3 * force_sd:.1f} ms), the stone leaves the trough at {stone:.4f} s (sd "
-            f"{1e3 * stone_sd:.1f} ms)")
-    source = "trough normal force reaches zero and the stone leaves the trough"
+    sd = force_sd if np.isfinite(force_sd) and force_sd > 0 else 0.0
+    both = float(np.hypot(sd, stone_sd))
+    said = (f"the trough's normal force reaches zero at {force:.4f} s (sd {1e3 * sd:.1f} ms), "
+            f"the stone leaves the trough at {stone:.4f} s (sd {1e3 * stone_sd:.1f} ms)")
+    source = "trough normal force reaches zero, checked by the stone leaving the trough"
     if abs(force - stone) <= agreement_sd * both:
-        return LiftOffChoice(when, sd, source, f"lift-off at {when:.4f} s: {said}")
-    wide = covering_sd(sd, max(abs(when - force), abs(when - stone)))
-    return LiftOffChoice(when, wide, source, None,
-                         f"the lift-off sources disagree: {said}, {abs(force - stone) / both:.1f} "
-                         f"sd apart; lift-off is taken at {when:.4f} s with sd "
-                         f"{1e3 * wide:.1f} ms to cover both (the angles' common offset, a "
-                         "camera's roll, moves the normal force's zero)")
-
+        return LiftOffChoice(force, force_sd, source, f"lift-off at {force:.4f} s: {said}")
+    wide = covering_sd(sd, stone - force)
+    return LiftOffChoice(force, wide, source, None,
+                         f"the lift-off sources disagree: {said}, "
+                         f"{abs(force - stone) / both:.1f} sd apart; lift-off is taken at "
+                         f"{force:.4f} s with sd {1e3 * wide:.1f} ms to cover both (the angles' "
+                         "common offset, a camera's roll, moves the normal force's zero)")
 
 #: s: an angle the normal force needs that is not tracked within this of the lift-off
 #: widens its sd (:func:`gap_widened_sd`).
@@ -140,13 +138,18 @@ def gap_widened_sd(t: np.ndarray, tracked: np.ndarray, lift_off: float, sd: floa
                    ) -> tuple[float, str | None]:
     """The lift-off's sd (s) widened where an angle it rests on is not tracked near it:
     ``tracked`` (k, n) bool per angle and row (θ and ψ: the normal force is the phase-I
-    formula on them); each untracked run of rows that reaches within :data:`GAP_WINDOW_S`
-    of ``lift_off`` (s) adds its span / √12 in quadrature (the lift-off could lie anywhere
-    the data do not show). A stress-grid log whose counterweight's track was dropped from
-    60 ms before lift-off on put it 9.8 frames late with an sd of 0.3 frame. Returns the
-    sd and a sentence (None: nothing widened)."""
+    formula on them); each untracked run of rows that reaches from :data:`GAP_WINDOW_S`
+    before ``lift_off`` (s) to two frames after it adds its span / √12 in quadrature (the
+    lift-off could lie anywhere the data do not show; a gap that starts after the
+    crossing moved nothing: on the video bench's Kinovea exports the counterweight's gaps
+    from 27 ms after lift-off on had widened its sd to 60-200 ms and let the stone's
+    coarser departure pull it 3-4 frames early). A stress-grid log whose counterweight's
+    track was dropped from 60 ms before lift-off on put it 9.8 frames late with an sd of 0.3
+    frame. Returns the sd and a sentence (None: nothing widened)."""
     t = np.asarray(t, dtype=float)
-    near = np.abs(t - lift_off) <= GAP_WINDOW_S
+    frame = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    # a gap that starts after the crossing (and its first frames below zero) moves nothing
+    near = (t >= lift_off - GAP_WINDOW_S) & (t <= lift_off + 2.0 * frame)
     extra, spans = 0.0, []
     for row in np.asarray(tracked, bool):
         missing = ~row

@@ -15,11 +15,12 @@ each candidate ``t_l`` on a frame grid and then at a tenth of a frame
 (:func:`~.detection.refined_profile`); the noise scale is profiled out. The profile's
 mean and spread are the estimate. A cubic departure is slow: 1 cm in 80 ms on the paper's
 engine (a quarter of a pixel at the tilted sample's 26 px/m), so this source is coarse
-where the stone is small in the image, and sharp where it is large; it is weighed with
-the normal force's zero (:mod:`.lift_off`) by their sd (:mod:`.lift_off_sources`). It
-sees the lift-off directly, where the normal force's zero moves with every angle's
-common offset (a camera's roll: on tilted video the normal force put lift-off 4.7 frames
-late).
+where the stone is small in the image, and sharp where it is large. It sees the lift-off
+directly, where the normal force's zero moves with every angle's common offset (a camera's
+roll: on tilted video the normal force put lift-off 4.7 frames late), so it checks the
+normal force's lift-off (:func:`~.lift_off.lift_off_choice`): where they disagree, the
+lift-off's sd covers both. On the video bench it came 1.6–4 frames early where the normal
+force was within half a frame, so it is a check, not a second estimate to average.
 
 Positions in any length unit (y up); times in the log's time (s).
 """
