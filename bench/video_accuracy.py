@@ -230,7 +230,8 @@ def run(out_dir: Path, cells: list[Cell] | None = None, seeds: tuple[int, ...] =
         runs.to_csv(runs_csv, index=False)
     table = summary(runs)
     table.to_csv(out_dir / "video_accuracy.csv", index=False)
-    shown = table.drop(columns=["occluders", "fmt", "tracker"])
+    events = [c for c in table.columns if c.split("_")[-1] in ("err", "sd", "warned", "ok")]
+    shown = table.drop(columns=["occluders", "fmt", "tracker", "post", *events])
     ok = table[table["misses"] == "-"]
     met = pd.DataFrame([target_checks(r) for _, r in table.iterrows()]).sum()
     notes = [
