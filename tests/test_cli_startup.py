@@ -84,6 +84,8 @@ def test_the_tableau_is_scipys():
     ["simulate", "s.toml", "-o", "x.csv", "--dt", "5"], ["sweep", "--accuracy", "sloppy"],
     ["report"], ["paper", "--bogus"], ["fmu", "build", "--fmi", "5"],
     ["forces", "x.csv", "--scene", "s.toml", "-o", "y.csv", "--form", "bent"],
+    ["identify", "--help"], ["identify", "x.csv"],
+    ["forces", "x.csv", "--scene", "s.toml", "-o", "y.csv", "--method", "guess"],
 ], ids=lambda argv: " ".join(argv) or "(none)")
 def test_help_and_usage_errors_import_nothing_heavy(argv):
     code = (f"sys.argv = ['trebuchet', *{argv!r}]\n"

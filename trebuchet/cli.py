@@ -45,6 +45,7 @@ ROOMS = (
     "trebuchet.report.report_cli",
     "trebuchet.model.sweep_cli",
     "trebuchet.ingest.cli",
+    "trebuchet.ingest.identify_cli",
     "trebuchet.report.compare_cli",
     "trebuchet.fmu.cli",
 )
