@@ -4,6 +4,7 @@ refusals, the fitted scene file, and the loads of the fitted engine."""
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 import tomllib
@@ -15,6 +16,7 @@ import pandas as pd
 import pytest
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.ingest.compare import CompareOptions
 from trebuchet.ingest.identification.check import autocorrelations, residual_check
 from trebuchet.ingest.identification.identify import identify
 from trebuchet.ingest.identification.noise import difference_noise_sd
@@ -235,3 +237,19 @@ def test_a_stone_twice_as_heavy_as_the_scene_says_is_named(small_fast, heavier_s
                       r"engine.m = 0.25.*weigh it"):
         found = identify(log, light)
     assert found.value("engine.M") < 106.0 / 1.3
+
+
+def test_compare_shows_the_scene_as_fitted_and_names_what_differs(small_fast, heavier_shot):
+    from trebuchet.ingest.compare import compare
+    from trebuchet.report.fitted_compare import fitted_comparison
+
+    _, log, _ = heavier_shot
+    table, measured, _ = _quiet(compare, log, small_fast)
+    assert (table["verdict"] == "differs").any()  # the scene as given: M is 6 % light
+    fitted = _quiet(fitted_comparison, measured, table, small_fast, CompareOptions(), log)
+    assert re.match(r"the shot differs from the scene in M \(1\.0[5-7] × the scene's, "
+                    r"\d+\.\d sd\)", fitted.sentence), fitted.sentence
+    assert (fitted.metrics["verdict"] != "differs").all(), fitted.side_by_side
+    assert list(fitted.keys["parameter"]) == list(fitted.identification.free)
+    assert fitted_comparison(measured, table, small_fast, CompareOptions(), log,
+                             fit=False) is None

@@ -33,7 +33,7 @@ import pandas as pd
 
 from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.ingest.advisory import resolution_advisories
-from trebuchet.ingest.identification.fit import DIFF_STEP, ShotFit
+from trebuchet.ingest.identification.fit import ShotFit
 from trebuchet.ingest.identification.identify import MIN_FRAMES, fitted_identification
 from trebuchet.ingest.identification.parameters import free_keys
 from trebuchet.ingest.identification.result import Identification, LoadBand
@@ -42,6 +42,7 @@ from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.reconstruction import Reconstruction
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
 from trebuchet.ingest.smoothing.inputs import validated_log
+from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.result import smoothing_of
 from trebuchet.ingest.smoothing.settings import SmoothSettings
 from trebuchet.ingest.smoothing.smooth import smooth
@@ -61,8 +62,11 @@ STATE_COLUMNS = [a + s for a in ANGLES for s in ("", "_d", "_dd")]
 #: compares and the resolution advisory's.
 BAND_COLUMNS = ("F_S_abs", "F_H_abs", "F_R_abs", "F_R_x", "F_R_perp", "torque", "P_m", "E_m",
                 "E_M", "E_beam", "F_CM_abs")
+#: The noise search's grid is the "fast" preset's (a decade): the residual's process noise
+#: sets only a small share of the bands.
 RESIDUAL_SMOOTHING = SmoothSettings(local_noise=False, bias_band=False,
-                                    band_variance="posterior")
+                                    band_variance="posterior",
+                                    noise=NoiseSearch(log10_step=1.0))
 
 
 @dataclass(frozen=True)
@@ -140,17 +144,9 @@ def _fit_variance(fit: ShotFit, phase: np.ndarray, state: pd.DataFrame,
     gradient: the events' sd covers it)."""
     t = state["t"].to_numpy()
     G_loads, G_state = [], []
-    lo, hi = fit.model.bounds(fit.x)
     state_now = np.column_stack([state[c].to_numpy() for c in STATE_COLUMNS])
-    for i in range(fit.x.size):
-        h = DIFF_STEP * max(1.0, abs(fit.x[i]))
-        if fit.x[i] + h > hi[i]:
-            h = -h
-        x = fit.x.copy()
-        x[i] += h
-        try:
-            traj, t0 = fit.model.trajectory(x)
-        except TrebuchetInputError:
+    for h, traj, t0 in fit.steps:
+        if traj is None:
             G_loads.append(np.zeros_like(base))
             G_state.append(np.zeros_like(state_now))
             continue
@@ -242,7 +238,7 @@ def _loads(log: pd.DataFrame, t: np.ndarray, z: np.ndarray, scene: Scene,
     def evaluate(frame: pd.DataFrame) -> pd.DataFrame:
         return evaluate_loads(frame, phase, fit.scene, form, trough)
 
-    prop = propagate(evaluate, state, cov)
+    prop = propagate(evaluate, state, cov, order=1)  # the residual's share is small
     var_fit, var_state, G = _fit_variance(fit, phase, state, shift, prop.value, prop.names,
                                           form, trough)
     ev_var = (event_variance(t, t0, ident.trigger_sd, prop.value)

@@ -15,10 +15,11 @@ order:
   ``M`` and ``I`` 2 sd off with it on the bench's logs). Elsewhere the release is given
   (``--release``: fixed) or the scene's rule stands (velocity angle or time).
 
-The residual of each angle at each frame is the wrapped difference ``z − model`` in units of
-that angle's noise sd (the weights). Frames where the model has no such angle (the sling after
-the model's release, a log whose sling track goes on past it) count zero, so that the
-residual vector keeps its length while the release moves.
+The fit takes the log's frames up to :attr:`ShotModel.fit_end` (every frame by default; the
+window of :mod:`.fit`). The residual of each angle at each frame is the wrapped difference ``z
+− model`` in units of that angle's noise sd (the weights). Frames where the model has no such
+angle (the sling after the model's release, a log whose sling track goes on past it) count
+zero, so that the residual vector keeps its length while the release moves.
 """
 
 from __future__ import annotations
@@ -70,6 +71,7 @@ class ShotModel:
     release_bounds: tuple[float, float] | None = None
     release: float | None = None
     rtol: float = 1e-8
+    fit_end: float = math.inf
 
     # ----------------------------------------------------------------- layout of x
 
@@ -139,11 +141,20 @@ class ShotModel:
             phi = s.phi
         return Start(theta=theta, psi=psi, phi=phi, H=H)
 
-    def trajectory(self, x: np.ndarray) -> tuple[Trajectory, float]:
-        """The integrated shot of ``x`` long enough for the log's last frame, and the trigger
-        (s, log time). Raises TrebuchetInputError where ``x`` is no engine."""
+    @property
+    def fitted(self) -> np.ndarray:
+        """(3, n) bool: the frames the fit takes (tracked, up to :attr:`fit_end`)."""
+        return np.isfinite(self.z) & (self.t <= self.fit_end)[None, :]
+
+    def trajectory(self, x: np.ndarray, until: float | None = None
+                   ) -> tuple[Trajectory, float]:
+        """The integrated shot of ``x`` long enough for the log's frames up to ``until`` (s,
+        log time; default the fit's window, :attr:`fit_end`, or the log's last frame), and
+        the trigger (s, log time). Raises TrebuchetInputError where ``x`` is no engine."""
         scene, t0 = self.scene_at(x)
-        span = float(self.t[-1]) - t0
+        if until is None:
+            until = min(self.fit_end, float(self.t[-1]))
+        span = until - t0
         after = max(span, 0.0) + 0.01
         if scene.release.time is not None:
             after = max(span - scene.release.time, 0.0) + 0.01
@@ -157,6 +168,12 @@ class ShotModel:
         such angle: the sling after release, no sling in a dry fire)."""
         traj, t0 = self.trajectory(x)
         return model_angles(traj, t0, self.t)
+
+    @property
+    def residual_count(self) -> int:
+        """Length of :meth:`residual`: the tracked frames of every angle, and the release's
+        prior term where it is fitted."""
+        return int(self.fitted.sum()) + (self.release_prior is not None)
 
     @property
     def release_prior(self) -> tuple[int, float, float] | None:
@@ -173,7 +190,7 @@ class ShotModel:
         (zero where the model has no such angle), then the release's prior term
         ``(t_r − mean) / sd`` where it is fitted (:attr:`release_prior`);
         :data:`FAILED_RESIDUAL` everywhere where ``x`` is no engine."""
-        ok = np.isfinite(self.z)
+        ok = self.fitted
         prior = self.release_prior
         extra = [] if prior is None else [(x[prior[0]] - prior[1]) / prior[2]]
         try:

@@ -18,8 +18,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
-from trebuchet.ingest.identification.fit import DIFF_STEP, ShotFit
+from trebuchet.ingest.identification.fit import ShotFit
 from trebuchet.ingest.identification.result import TABLE_COLUMNS, LossEnergy
 from trebuchet.model.simulate import Trajectory
 
@@ -114,20 +113,9 @@ def shot_quantities(fit: ShotFit) -> tuple[np.ndarray, np.ndarray]:
     """Values of :class:`ShotQuantities` ``NAMES`` of the fitted trajectory and their
     covariance (forward differences of the vector, module doc)."""
     base = ShotQuantities(fit.trajectory, fit.trigger).values
-    lo, hi = fit.model.bounds(fit.x)
     G = np.zeros((fit.x.size, base.size))
-    for i in range(fit.x.size):
-        h = DIFF_STEP * max(1.0, abs(fit.x[i]))
-        if fit.x[i] + h > hi[i]:
-            h = -h
-        x = fit.x.copy()
-        x[i] += h
-        try:
-            traj, t0 = fit.model.trajectory(x)
-        except TrebuchetInputError:
-            G[i] = np.nan
-            continue
-        G[i] = (ShotQuantities(traj, t0).values - base) / h
+    for i, (h, traj, t0) in enumerate(fit.steps):
+        G[i] = np.nan if traj is None else (ShotQuantities(traj, t0).values - base) / h
     G = np.where(np.isfinite(G), G, 0.0)
     return base, G.T @ fit.covariance @ G
 
