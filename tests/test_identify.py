@@ -253,3 +253,19 @@ def test_compare_shows_the_scene_as_fitted_and_names_what_differs(small_fast, he
     assert list(fitted.keys["parameter"]) == list(fitted.identification.free)
     assert fitted_comparison(measured, table, small_fast, CompareOptions(), log,
                              fit=False) is None
+
+
+def test_forces_and_compare_take_the_method_option():
+    from trebuchet.cli import build_parser
+    from trebuchet.ingest.cli import reconstruct_options
+
+    parser = build_parser()
+    for command in ("forces", "compare"):
+        args = parser.parse_args([command, "x.csv", "--scene", "s.toml", "-o", "out",
+                                  "--method", "smooth"])
+        assert reconstruct_options(args)["method"] == "smooth"
+        assert reconstruct_options(parser.parse_args(
+            [command, "x.csv", "--scene", "s.toml", "-o", "out"]))["method"] is None
+    args = parser.parse_args(["identify", "x.csv", "--scene", "s.toml", "-o", "f.toml",
+                              "--free", "engine.M", "--free", "engine.I", "--trigger", "0.3"])
+    assert args.free == ["engine.M", "engine.I"] and args.trigger == "0.3"
