@@ -18,6 +18,8 @@ the shot (|F_S| while held):
 - the same ``cover`` pooled for |F_H|, |F_S| and the torque (``FH_cover``, ``FS_cover``,
   ``torque_cover``);
 - ``fit_used``: % of logs whose loads came from the fitted engine (the fit passed its check);
+- ``peak_advised``: % of logs whose reconstruction warned that |F_R|'s or |F_H|'s peak is
+  too short for the smoother (``ingest/advisory.py``, ``peak_width_advisories``);
 - ``cpu_s``: median CPU seconds of one ``reconstruct`` (process time, this worker).
 
 ``identify_scenarios`` (``bench/results/identify_scenarios.csv``): the issue's identification
@@ -109,6 +111,8 @@ def one_log(engine: str, fps: int, noise: float, seed: int) -> list[dict]:
         ident = done.identification
         row = {"engine": engine, "fps": fps, "noise_deg": noise, "seed": seed,
                "method": method, "fit_used": float(done.method == "fit"), "cpu_s": cpu,
+               "peak_advised": float(any("wide at half height" in a.message
+                                         for a in done.advisories)),
                **scores(res, truth)}
         if ident is not None:
             row |= {"lag1_max": max(ident.check.lag1.values()),
@@ -133,6 +137,7 @@ def summary(runs: pd.DataFrame) -> pd.DataFrame:
         for short in ("FH", "FS", "torque"):
             row[f"{short}_cover"] = 100 * g[f"{short}_in"].sum() / g[f"{short}_n"].sum()
         row |= {"fit_used": 100 * float(g["fit_used"].mean()),
+                "peak_advised": 100 * float(g["peak_advised"].mean()),
                 "cpu_s": float(np.median(g["cpu_s"]))}
         out.append(row)
     return pd.DataFrame(out).round(2)
@@ -198,6 +203,8 @@ def scenario_summary(rows: pd.DataFrame) -> pd.DataFrame:
                 v = g[col].dropna()
                 row[f"{col}_med"] = float(np.median(v))
                 row[f"{col}_worst"] = float(v.iloc[np.argmax(np.abs(v.to_numpy()))])
+        if "engine.M_err" in g:
+            row["M_within_1.5_pct"] = 100 * float((g["engine.M_err"].abs() <= 1.5).mean())
         row["within_3sd_pct"] = 100 * float((g["max_z"] <= 3).mean())
         row["cpu_s"] = float(np.median(g["cpu_s"]))
         out.append(row)
@@ -283,21 +290,27 @@ def run(out_dir: str | Path | None = None, workers: int = 2) -> pd.DataFrame:
         pd.DataFrame(ident).to_csv(out / "identify_scenarios_runs.csv", index=False)
         scen.to_csv(out / "identify_scenarios.csv", index=False)
         speeds.to_csv(out / "identify_speed.csv", index=False)
-        from bench.__main__ import markdown
-
-        (out / "identify_scenarios.md").write_text(markdown(
-            scen, "Identification on the small fast engine, 0.3° at 240 fps, 30 logs a row "
-            "(bench identify_accuracy).", ["errors in % of the truth; within_3sd: % of logs "
-                                           "whose every fitted key lies within 3 sd of the "
-                                           "truth; warned: % of logs warned that the fit "
-                                           "does not explain the shot"]), encoding="utf-8")
-        (out / "identify_speed.md").write_text(markdown(
-            speeds, "CPU seconds of identify and of reconstruct's two methods on the same "
-            "logs, interleaved in one run (bench identify_accuracy).",
-            ["median of 5 runs each; fit_over_smooth: reconstruct's default over "
-             "method='smooth' (the smoother of today's forces)"]), encoding="utf-8")
+        write_tables(out, scen, speeds)
         table.to_csv(out / "identify_accuracy.csv", index=False)
     return table
+
+
+def write_tables(out: Path, scenarios: pd.DataFrame, speeds: pd.DataFrame) -> None:
+    """``identify_scenarios.md`` and ``identify_speed.md`` (docs/benchmarks.md's blocks)."""
+    from bench.__main__ import markdown
+
+    (out / "identify_scenarios.md").write_text(markdown(
+        scenarios, "Identification on the small fast engine, 0.3° at 240 fps, 30 logs a row "
+        "(bench identify_accuracy).", ["errors in % of the truth (median, and the worst log); "
+                                       "within_3sd: % of logs whose every fitted key lies "
+                                       "within 3 sd of the truth; warned: % of logs warned "
+                                       "that the fit does not explain the shot"]),
+        encoding="utf-8")
+    (out / "identify_speed.md").write_text(markdown(
+        speeds, "CPU seconds of identify and of reconstruct's two methods on the same logs, "
+        "interleaved in one run (bench identify_accuracy).",
+        ["median of 5 runs each; fit_over_smooth: reconstruct's default over "
+         "method='smooth' (the smoother of today's forces)"]), encoding="utf-8")
 
 
 if __name__ == "__main__":

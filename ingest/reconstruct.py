@@ -721,6 +721,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         "measured" (see the module doc); image_calibration : "engine" (default, point
         logs: the engine calibrates the image) or "none" (``ReconstructOptions``); they
         override ``options``.
+    method : None (default): the loads of the scene's engine fitted to a log of angles
+        where the fit passes its residual check, else the smoother's (with a note why);
+        "fit": the same for a log of tracked points too; "smooth": the smoother's
+        (:mod:`.identification.fitted_loads`, docs/identify.md).
     q, r : the smoother's process noise and measurement noise sd (rad), per angle or one
         number; default maximum likelihood.
     options : :class:`ReconstructOptions`.
