@@ -269,3 +269,25 @@ def test_forces_and_compare_take_the_method_option():
     args = parser.parse_args(["identify", "x.csv", "--scene", "s.toml", "-o", "f.toml",
                               "--free", "engine.M", "--free", "engine.I", "--trigger", "0.3"])
     assert args.free == ["engine.M", "engine.I"] and args.trigger == "0.3"
+
+
+@pytest.mark.parametrize("variant", ["sling", "dry fire", "fixed counterweight"])
+def test_every_kind_of_scene_is_identified(variant):
+    from .conftest import BACKYARD
+
+    data = {k: dict(v) for k, v in BACKYARD.items()}
+    if variant == "sling":  # a stone hanging in the sling: φ0 is a nuisance too
+        data["start"] |= {"projectile": "sling", "phi_deg": -95.0}
+        data["engine"]["H"] = 3.6
+    elif variant == "dry fire":  # no stone: M alone is freed by default
+        data["start"]["projectile"] = "none"
+        data["start"].pop("phi_deg")
+        data.pop("release")
+    else:
+        data["engine"]["counterweight"] = "fixed"
+    scene = Scene.from_dict(data, source=variant)
+    log, _ = simulated_log(scene, 240, 0.3, seed=1)
+    found = _quiet(identify, log, scene)
+    assert found.passed, found.check.describe()
+    assert abs(found.ratio("engine.M") - 1) < 3 * found.sd("engine.M") / scene.engine.M
+    assert found.free == (("engine.M",) if variant == "dry fire" else ("engine.M", "engine.I"))

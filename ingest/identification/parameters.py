@@ -107,8 +107,10 @@ def follows_default_H(scene: Scene) -> bool:
 
 def default_free(scene: Scene) -> tuple[str, ...]:
     """``engine.M``, ``engine.I`` and, where the scene gives their radii, the friction
-    coefficients ``friction.pivot_mu`` and ``friction.hinge_mu``."""
-    keys = ["engine.M", "engine.I"]
+    coefficients ``friction.pivot_mu`` and ``friction.hinge_mu``. A dry fire frees ``M`` but
+    not ``I``: without a stone only the beam's weight sets the masses' scale, and on the
+    backyard engine ``M`` and ``I`` then correlated at 0.9999 (refused)."""
+    keys = ["engine.M"] if scene.projectile == "none" else ["engine.M", "engine.I"]
     fr = scene.friction
     if fr is not None:
         keys += [f"friction.{j}_mu" for j in ("pivot", "hinge") if getattr(fr, f"{j}_radius") > 0]
