@@ -57,9 +57,10 @@ def add_reconstruct_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--trough", choices=TROUGH, default=None,
                    help="phase-I sling angle from the trough constraint (default) or measured")
     p.add_argument("--method", choices=METHODS, default=None,
-                   help="loads from the engine fitted to the log (fit, default: where the fit "
-                        "passes its residual check, else the smoother's) or from the smoothed "
-                        "angles (smooth)")
+                   help="fit: loads of the engine fitted to the log where the fit passes its "
+                        "residual check, else the smoother's (the default for a log of "
+                        "angles; a log of tracked points keeps the smoother's unless fit is "
+                        "given); smooth: loads of the smoothed angles")
     add_image_calibration_argument(p)
     add_event_arguments(p)
 
