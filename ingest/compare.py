@@ -60,6 +60,7 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.errors import TrebuchetInputError, check_choice
+from trebuchet.ingest.identification.chance import fit_chance_levels
 from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.settings import ALIGN_MODES, CHANCE_RUNS, RELEASE_MODES
 from trebuchet.ingest.uncertainty import BAND_SD
@@ -547,6 +548,12 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
     from trebuchet.ingest.reconstruct import reconstruct
 
     a = reconstruction_of(measured)
+    band = getattr(a.identification, "band", None)
+    if a.method == "fit" and band is not None:  # issue 23: the fitted engine's error model
+        return fit_chance_levels(measured, band, {q.column: _window(q, measured, predicted)
+                                                  for q in quantities},
+                                 [q.column for q in quantities], band_sd=band_sd, level=level,
+                                 seed=seed, draws=draws)
     noise = a.noise
     # every event is found in each simulated log as in the real one: their errors and sd
     # shape the loads and bands of the frames around them
@@ -565,7 +572,7 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                sim = reconstruct(log, scene, form=a.form, trough=a.trough)
+                sim = reconstruct(log, scene, form=a.form, trough=a.trough, method=a.method)
             except TrebuchetInputError:
                 continue
         sim.index = measured.index

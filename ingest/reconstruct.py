@@ -45,7 +45,12 @@ from trebuchet.errors import (
     check_choice,
     warn_at_caller,
 )
-from trebuchet.ingest.advisory import ADVISED, resolution_advisories
+from trebuchet.ingest.advisory import (
+    ADVISED,
+    peak_width_advisories,
+    resolution_advisories,
+    smoother_bandwidth,
+)
 from trebuchet.ingest.calibrated_angles import calibrated_log, widened_by_calibration
 from trebuchet.ingest.events.lift_off import (
     lift_off_sd,
@@ -64,12 +69,13 @@ from trebuchet.ingest.events.release_sources import TrackEndRelease, release_at_
 from trebuchet.ingest.events.sling_continuation import continued_sling, release_horizon
 from trebuchet.ingest.events.stone_flight import points_stone_release
 from trebuchet.ingest.geometry.user_calibration import read_calibration
+from trebuchet.ingest.identification.fitted_loads import fitted_reconstruction
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.logs.scene_check import scene_check
 from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.scene_fit import geometry_findings, warn_findings
-from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, TROUGH
+from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, METHODS, TROUGH
 from trebuchet.ingest.smoothing.counterweight_continuation import with_continued_counterweight
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.result import smoothing_of, with_angle_rows, with_smoothing
@@ -228,8 +234,10 @@ class ReconstructOptions:
     preset: str = "default"
     release_model: ReleaseFit | None = ReleaseFit()
     image_calibration: str = "engine"
+    method: str | None = None  # issue 23: None (default), "fit" or "smooth" (fitted_loads.py)
 
     def __post_init__(self) -> None:
+        check_choice("reconstruct", "method", self.method, (None, *METHODS))
         check_choice("reconstruct", "preset", self.preset, tuple(PRESETS))
         check_choice("reconstruct", "image_calibration", self.image_calibration,
                      IMAGE_CALIBRATIONS)
@@ -480,6 +488,8 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         {c: sd[:, j] for c, j in col.items()}, {c: prop.orders(c) for c in prop.order_names},
         {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
         options.resolution_fraction, lines=lines)
+    advice += peak_width_advisories(t, moving, {c: prop.value[:, j] for c, j in col.items()},
+                                    smoother_bandwidth(noise, t), fps, noise_deg, lines=lines)
     del ev_var
 
     t_shot = t - (trigger if trigger is not None else t[0])
@@ -711,7 +721,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                 points: Mapping[str, str] | None = None, *,
                 events: Mapping[str, float | None] | None = None,
                 form: str | None = None, trough: str | None = None,
-                image_calibration: str | None = None,
+                image_calibration: str | None = None, method: str | None = None,
                 q: float | Mapping[str, float] | None = None,
                 r: float | Mapping[str, float] | None = None,
                 min_likelihood: float = MIN_LIKELIHOOD,
@@ -742,6 +752,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         "measured" (see the module doc); image_calibration : "engine" (default, point
         logs: the engine calibrates the image) or "none" (``ReconstructOptions``); they
         override ``options``.
+    method : None (default): the loads of the scene's engine fitted to a log of angles
+        where the fit passes its residual check, else the smoother's (with a note why);
+        "fit": the same for a log of tracked points too; "smooth": the smoother's
+        (:mod:`.identification.fitted_loads`, docs/identify.md).
     q, r : the smoother's process noise and measurement noise sd (rad), per angle or one
         number; default maximum likelihood.
     options : :class:`ReconstructOptions`.
@@ -771,7 +785,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     """
     if options is None:
         options = ReconstructOptions()
-    changes = {k: v for k, v in (("form", form), ("trough", trough),
+    changes = {k: v for k, v in (("form", form), ("trough", trough), ("method", method),
                                  ("image_calibration", image_calibration)) if v is not None}
     if changes:
         options = dataclasses.replace(options, **changes)
@@ -799,6 +813,13 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     t_log, angles_log = validated_log(log, smoother_settings(options).min_frames)
     if events is not None:
         given = checked_events(events, t_log, source)
+    # issue 23: the loads of the engine fitted to the log, where it passes its residual check
+    fitted = (fitted_reconstruction(log, scene, given, form=options.form, trough=options.trough,
+                                    resolution_fraction=options.resolution_fraction,
+                                    source=source, method=options.method)
+              if options.method != "smooth" else None)
+    if fitted is not None and fitted.result is not None:
+        return fitted.result
     smooth_events = {k: v for k, v in given.items() if k in ("trigger", "release")}
     track_end = None
     if ("release" not in given and options.release_at_track_end
@@ -863,4 +884,4 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     if advice:
         warn_at_caller(f"{name}: " + "; ".join(a.message for a in advice),
                       ModelValidityWarning)
-    return result
+    return result if fitted is None else fitted.explained(result)  # why not the fit's loads

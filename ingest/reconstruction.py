@@ -54,6 +54,13 @@ class Reconstruction:
         Sentences: angles outside the scene's geometry, a slack sling.
     notes:
         Sentences about the log, the smoothing and the events.
+    method:
+        ``"smooth"``: the loads of the smoothed angles; ``"fit"``: of the fitted engine
+        (:mod:`~trebuchet.ingest.identification.fitted_loads`).
+    identification:
+        The engine identified from the log
+        (:class:`~trebuchet.ingest.identification.result.Identification`) where a fit ran,
+        else None (with ``method="smooth"`` it failed its check, or was not asked for).
     """
 
     events: Mapping[str, float | None]
@@ -68,6 +75,8 @@ class Reconstruction:
     advisories: tuple[Advisory, ...] = ()
     validity: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    method: str = "smooth"
+    identification: Any = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -89,7 +98,7 @@ class Reconstruction:
         return (_rebuild, (dict(self.events), dict(self.event_sd), dict(self.event_sources),
                            {a: dict(v) for a, v in self.noise.items()}, self.form,
                            self.trough, self.model, self.preset, self.fps, self.advisories,
-                           self.validity, self.notes))
+                           self.validity, self.notes, self.method, self.identification))
 
 
 def _rebuild(*fields) -> Reconstruction:
