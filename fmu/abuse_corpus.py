@@ -195,7 +195,7 @@ def state_misuse(rng: random.Random) -> list[Case]:
             }
             for name, tail in variants.items():
                 lines = tail if name == "before-init" else [*base, *tail]
-                cases.append(Case(f"state-misuse-{fmi}{kind}-{name}", tuple(lines)))
+                cases.append(Case(f"misuse-{fmi}{kind}-{name}", tuple(lines)))
     return cases
 
 

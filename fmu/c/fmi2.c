@@ -27,10 +27,6 @@ typedef struct {
     TrebCore k;
 } Instance;
 
-static const char *const STATE_NAME[TREB_NSTATES] = {
-    "instantiated", "initialization mode", "step mode", "event mode", "continuous-time mode",
-    "terminated", "error", "stopped at the horizon"};
-
 static void logf2(Instance *c, fmi2Status status, const char *category, const char *fmt, ...)
 {
     char text[TREB_MSG + 128];
@@ -85,8 +81,7 @@ static int check(Instance *c, const char *fn, int allowed)
 {
     if (!c) return 0;
     if (c->k.state < 0 || c->k.state >= TREB_NSTATES || !(allowed & (1 << c->k.state))) {
-        failf(c, "%s may not be called in this state (%s)", fn,
-              c->k.state >= 0 && c->k.state < TREB_NSTATES ? STATE_NAME[c->k.state] : "?");
+        failf(c, "%s may not be called in this state (%s)", fn, treb_state_name(c->k.state));
         return 0;
     }
     return 1;
@@ -395,8 +390,8 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueRefer
     if (nUnknown) { NEED(vUnknown, fn, "vUnknown"); NEED(dvUnknown, fn, "dvUnknown"); }
     if (nKnown) { NEED(vKnown, fn, "vKnown"); NEED(dvKnown, fn, "dvKnown"); }
     for (size_t k = 0; k < nKnown; k++)
-        if (!isfinite(dvKnown[k])) return failf(c, "%s: dvKnown[%zu] = %g: must be finite", fn,
-                                                k, dvKnown[k]);
+        if (!isfinite(dvKnown[k])) return failf(c, "%s: dvKnown[%lu] = %g: must be finite", fn,
+                                                (unsigned long)k, dvKnown[k]);
     if (treb_model_directional(&c->k.m, vUnknown, nUnknown, vKnown, nKnown, dvKnown, dvUnknown,
                                msg))
         return fail(c, msg);
@@ -565,8 +560,8 @@ fmi2Status fmi2SetTime(fmi2Component comp, fmi2Real time)
 /* The model exchange's arrays: the instance's type, the array and its length. */
 #define ME_ARRAY(fn, p, n, want) \
     do { ME_ONLY(fn); NEED(p, fn, "the array"); \
-         if ((n) != (want)) return failf(c, "%s: %zu values, the FMU has %d", fn, \
-                                         (size_t)(n), (int)(want)); } while (0)
+         if ((n) != (want)) return failf(c, "%s: %lu values, the FMU has %d", fn, \
+                                         (unsigned long)(n), (int)(want)); } while (0)
 
 fmi2Status fmi2SetContinuousStates(fmi2Component comp, const fmi2Real x[], size_t nx)
 {

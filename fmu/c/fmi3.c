@@ -22,10 +22,6 @@ typedef struct {
     TrebCore k;
 } Instance;
 
-static const char *const STATE_NAME[TREB_NSTATES] = {
-    "instantiated", "initialization mode", "step mode", "event mode", "continuous-time mode",
-    "terminated", "error", "stopped at the horizon"};
-
 static void log3(Instance *c, fmi3Status status, const char *category, const char *fmt, ...)
 {
     char text[TREB_MSG + 128];
@@ -79,8 +75,7 @@ static int check(Instance *c, const char *fn, int allowed)
 {
     if (!c) return 0;
     if (c->k.state < 0 || c->k.state >= TREB_NSTATES || !(allowed & (1 << c->k.state))) {
-        failf(c, "%s may not be called in this state (%s)", fn,
-              c->k.state >= 0 && c->k.state < TREB_NSTATES ? STATE_NAME[c->k.state] : "?");
+        failf(c, "%s may not be called in this state (%s)", fn, treb_state_name(c->k.state));
         return 0;
     }
     return 1;
@@ -270,7 +265,8 @@ static fmi3Status get(Instance *c, const char *fn, const fmi3ValueReference vr[]
     if (nvr == 0) return fmi3OK;
     NEED(vr, fn, "the value references");
     NEED(out, fn, "the values");
-    if (nValues < nvr) return failf(c, "%s: %zu values for %zu references", fn, nValues, nvr);
+    if (nValues < nvr) return failf(c, "%s: %lu values for %lu references", fn,
+                                     (unsigned long)nValues, (unsigned long)nvr);
     if (c->k.m.initialized && !c->k.broken && treb_model_outputs(&c->k.m, msg))
         return fail(c, msg);
     for (size_t i = 0; i < nvr; i++) {
@@ -290,7 +286,8 @@ static fmi3Status set(Instance *c, const char *fn, const fmi3ValueReference vr[]
     if (nvr == 0) return fmi3OK;
     NEED(vr, fn, "the value references");
     NEED(in, fn, "the values");
-    if (nValues < nvr) return failf(c, "%s: %zu values for %zu references", fn, nValues, nvr);
+    if (nValues < nvr) return failf(c, "%s: %lu values for %lu references", fn,
+                                     (unsigned long)nValues, (unsigned long)nvr);
     for (size_t i = 0; i < nvr; i++) {
         if (!valid_vr(c, vr[i], type)) return fmi3Error;
         int causality = TREB_VAR_CAUSALITY[vr[i]];
@@ -485,8 +482,8 @@ fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueRe
     if (nu) { NEED(u, fn, "unknowns"); NEED(sensitivity, fn, "sensitivity"); }
     if (nk) { NEED(k, fn, "knowns"); NEED(seed, fn, "seed"); }
     for (size_t i = 0; i < nk; i++)
-        if (!isfinite(seed[i])) return failf(c, "%s: seed[%zu] = %g: must be finite", fn, i,
-                                             seed[i]);
+        if (!isfinite(seed[i])) return failf(c, "%s: seed[%lu] = %g: must be finite", fn,
+                                             (unsigned long)i, seed[i]);
     if (treb_model_directional(&c->k.m, u, nu, k, nk, seed, sensitivity, msg))
         return fail(c, msg);
     return fmi3OK;
@@ -611,8 +608,8 @@ fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
 
 #define ME_ARRAY(fn, p, n, want) \
     do { ME_ONLY(fn); NEED(p, fn, "the array"); \
-         if ((n) != (want)) return failf(c, "%s: %zu values, the FMU has %d", fn, \
-                                         (size_t)(n), (int)(want)); } while (0)
+         if ((n) != (want)) return failf(c, "%s: %lu values, the FMU has %d", fn, \
+                                         (unsigned long)(n), (int)(want)); } while (0)
 #define EVALUATED (RUNNING | BIT(TREB_S_TERMINATED))
 
 fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 x[], size_t nx)

@@ -759,7 +759,7 @@ int treb_shot_deserialize(TrebShot *s, const unsigned char *buf, size_t size, ch
 {
     TrebShot head;
     if (size < sizeof head) {
-        snprintf(msg, TREB_MSG, "the shot is cut short (%zu bytes)", size);
+        snprintf(msg, TREB_MSG, "the shot is cut short (%lu bytes)", (unsigned long)size);
         return -1;
     }
     memcpy(&head, buf, sizeof head);
@@ -771,8 +771,8 @@ int treb_shot_deserialize(TrebShot *s, const unsigned char *buf, size_t size, ch
     }
     size_t need = sizeof head + ((size_t)n + (size_t)nf) * sizeof(TrebStep);
     if (size != need) {
-        snprintf(msg, TREB_MSG, "the shot's %d + %d steps need %zu bytes, the state has %zu",
-                 n, nf, need, size);
+        snprintf(msg, TREB_MSG, "the shot's %d + %d steps need %lu bytes, the state has %lu",
+                 n, nf, (unsigned long)need, (unsigned long)size);
         return -1;
     }
     TrebStep *a = steps_from(buf + sizeof head, n);
@@ -808,10 +808,20 @@ static int bad(char *msg, const char *what)
     return -1;
 }
 
+/* The states of a phase that are checked to be finite: those run_phase and
+ * treb_shot_outputs use today. Memory stays safe whatever they become (every array has
+ * TREB_MAXN entries, and a size is only checked to lie in 1..TREB_MAXN); a state the check
+ * misses gives a non-finite output, which is refused where it is computed. */
+static int checked_states(int phase)
+{
+    int n = phase == 2 ? 6 : 4;
+    return n < TREB_MAXN ? n : TREB_MAXN;
+}
+
 /* An integration read from bytes: kinds, sizes and numbers in range, the scene's q. */
 static int check_dop(const TrebDop *d, const TrebScene *sc, int kind, char *msg)
 {
-    if (d->kind != kind || d->n != (kind == 2 ? 6 : 4) || d->fixed != sc->fixed)
+    if (d->kind != kind || d->n < 1 || d->n > TREB_MAXN || d->fixed != sc->fixed)
         return bad(msg, "an integration's kind or size is not the phase's");
     if (memcmp(d->q, sc->q, sizeof d->q) != 0 || memcmp(&d->k_drag, &sc->k_drag, sizeof
                                                           d->k_drag) != 0)
@@ -862,7 +872,8 @@ static int check_phases(const TrebShot *s, char *msg)
             || (k == last && s->phase[k] == 3 && s->t1[k] != INFINITY)
             || (s->phase[k] != 3 && !isfinite(s->t1[k])))
             return bad(msg, "a phase's times are not joined");
-        if (check_steps(&s->steps, s->first[k], end, s->phase[k] == 2 ? 6 : 4, msg)) return -1;
+        if (check_steps(&s->steps, s->first[k], end, checked_states(s->phase[k]), msg))
+            return -1;
     }
     if (last >= 0 && s->phase[last] == 3) {
         if (check_dop(&s->open, &s->sc, 3, msg)) return -1;
@@ -901,5 +912,5 @@ int treb_shot_check(const TrebShot *s, int cosim, int complete, char *msg)
         if (check_dop(&s->flight_dop, sc, TREB_DRAG_FLIGHT, msg)) return -1;
         if (!(s->flight_dop.t >= s->release[0])) return bad(msg, "the flight starts after its end");
     }
-    return check_steps(&s->flight, 0, s->flight.n, 4, msg);
+    return check_steps(&s->flight, 0, s->flight.n, s->flight_dop.n, msg);
 }

@@ -17,6 +17,14 @@ struct TrebSaved {
 enum { AT_FORMAT = 8, AT_FMI = 12, AT_LAYOUT = 16, AT_STATE = 28, AT_SIZE = 32, AT_SUM = 40,
        AT_START = 48, AT_BROKEN = 56, AT_STOPPED = 60, AT_TOKEN = 64, TOKEN_BYTES = 48 };
 
+const char *treb_state_name(int state)
+{
+    static const char *const NAME[TREB_NSTATES] = {
+        "instantiated", "initialization mode", "step mode", "event mode",
+        "continuous-time mode", "terminated", "error", "stopped at the horizon"};
+    return state >= 0 && state < TREB_NSTATES ? NAME[state] : "?";
+}
+
 void treb_core_new(TrebCore *k, int cosim)
 {
     memset(k, 0, sizeof *k);

@@ -35,6 +35,9 @@
 enum { TREB_S_INSTANTIATED, TREB_S_INIT, TREB_S_STEP, TREB_S_EVENT, TREB_S_CONTINUOUS,
        TREB_S_TERMINATED, TREB_S_ERROR, TREB_S_STOPPED, TREB_NSTATES };
 
+/* The state's name in messages ("error", "stopped at the horizon", ...). */
+const char *treb_state_name(int state);
+
 typedef struct TrebSaved TrebSaved;
 
 /* An instance without its FMI version's callbacks. broken: an error happened, the outputs are

@@ -718,12 +718,15 @@ static void null2(World *w, const char *fn, unsigned mask, void *c)
         CALL(w, fn, NULL, 0, 1, F2.SetRealInputDerivatives(c, NP(0, vr), 1, NP(1, i), NP(2, r)));
     else if (!strcmp(fn, "outder"))
         CALL(w, fn, NULL, 0, 0, F2.GetRealOutputDerivatives(c, NP(0, vr), 1, NP(1, i), NP(2, r)));
-    else if (!strcmp(fn, "status")) CALL(w, fn, NULL, 0, 0, F2.GetStatus(c, fmi2DoStepStatus, NULL));
+    else if (!strcmp(fn, "status")) CALL(w, fn, NULL, 0, 0,
+                                         F2.GetStatus(c, fmi2DoStepStatus, NULL));
     else if (!strcmp(fn, "rstatus"))
         CALL(w, fn, NULL, 0, 0, F2.GetRealStatus(c, fmi2LastSuccessfulTime, NULL));
     else if (!strcmp(fn, "istatus")) CALL(w, fn, NULL, 0, 0, F2.GetIntegerStatus(c, 0, NULL));
-    else if (!strcmp(fn, "bstatus")) CALL(w, fn, NULL, 0, 0, F2.GetBooleanStatus(c, fmi2Terminated, NULL));
-    else if (!strcmp(fn, "sstatus")) CALL(w, fn, NULL, 0, 0, F2.GetStringStatus(c, fmi2PendingStatus, NULL));
+    else if (!strcmp(fn, "bstatus")) CALL(w, fn, NULL, 0, 0,
+                                          F2.GetBooleanStatus(c, fmi2Terminated, NULL));
+    else if (!strcmp(fn, "sstatus")) CALL(w, fn, NULL, 0, 0,
+                                          F2.GetStringStatus(c, fmi2PendingStatus, NULL));
     else if (!strcmp(fn, "disc")) CALL(w, fn, NULL, 0, 1, F2.NewDiscreteStates(c, NP(0, &info)));
     else if (!strcmp(fn, "done"))
         CALL(w, fn, NULL, 0, 1, F2.CompletedIntegratorStep(c, fmi2True, NP(0, b), NP(1, b + 1)));
@@ -731,8 +734,10 @@ static void null2(World *w, const char *fn, unsigned mask, void *c)
     else if (!strcmp(fn, "getx")) CALL(w, fn, NULL, 0, 0, F2.GetContinuousStates(c, NULL, 6));
     else if (!strcmp(fn, "der")) CALL(w, fn, NULL, 0, 0, F2.GetDerivatives(c, NULL, 6));
     else if (!strcmp(fn, "ind")) CALL(w, fn, NULL, 0, 0, F2.GetEventIndicators(c, NULL, 3));
-    else if (!strcmp(fn, "nominal")) CALL(w, fn, NULL, 0, 0, F2.GetNominalsOfContinuousStates(c, NULL, 6));
-    else if (!strcmp(fn, "debug")) CALL(w, fn, NULL, 0, 0, F2.SetDebugLogging(c, fmi2True, 3, NULL));
+    else if (!strcmp(fn, "nominal")) CALL(w, fn, NULL, 0, 0,
+                                          F2.GetNominalsOfContinuousStates(c, NULL, 6));
+    else if (!strcmp(fn, "debug")) CALL(w, fn, NULL, 0, 0,
+                                        F2.SetDebugLogging(c, fmi2True, 3, NULL));
     else if (!strcmp(fn, "step")) CALL(w, fn, NULL, 0, 1, F2.DoStep(c, w->t, 1e-3, fmi2True));
     else if (!strcmp(fn, "setup")) CALL(w, fn, NULL, 0, 1, F2.SetupExperiment(c, 0, 0, 0, 0, 0));
     else if (!strcmp(fn, "init")) CALL(w, fn, NULL, 0, 1, F2.EnterInitializationMode(c));
@@ -759,13 +764,18 @@ static void null3(World *w, const char *fn, unsigned mask, void *c)
     int st = 0;
     void *state = w->slot[0] && w->slot_of[0] == w->cur ? w->slot[0] : NULL;
     if (!strcmp(fn, "getr")) CALL(w, fn, NULL, 0, 0, F3.GetFloat64(c, NP(0, vr), 1, NP(1, r), 1));
-    else if (!strcmp(fn, "geti")) CALL(w, fn, NULL, 0, 0, F3.GetInt32(c, NP(0, vr), 1, NP(1, i32), 1));
-    else if (!strcmp(fn, "getb")) CALL(w, fn, NULL, 0, 0, F3.GetBoolean(c, NP(0, vr), 1, NP(1, b), 1));
+    else if (!strcmp(fn, "geti")) CALL(w, fn, NULL, 0, 0,
+                                       F3.GetInt32(c, NP(0, vr), 1, NP(1, i32), 1));
+    else if (!strcmp(fn, "getb")) CALL(w, fn, NULL, 0, 0,
+                                       F3.GetBoolean(c, NP(0, vr), 1, NP(1, b), 1));
     else if (!strcmp(fn, "getbin"))
         CALL(w, fn, NULL, 0, 0, F3.GetBinary(c, NP(0, vr), 1, NP(1, sizes), NP(2, bin), 1));
-    else if (!strcmp(fn, "setr")) CALL(w, fn, NULL, 0, 1, F3.SetFloat64(c, NP(0, vr), 1, NP(1, r), 1));
-    else if (!strcmp(fn, "seti")) CALL(w, fn, NULL, 0, 1, F3.SetInt64(c, NP(0, vr), 1, NP(1, i), 1));
-    else if (!strcmp(fn, "setb")) CALL(w, fn, NULL, 0, 1, F3.SetBoolean(c, NP(0, vr), 1, NP(1, b), 1));
+    else if (!strcmp(fn, "setr")) CALL(w, fn, NULL, 0, 1,
+                                       F3.SetFloat64(c, NP(0, vr), 1, NP(1, r), 1));
+    else if (!strcmp(fn, "seti")) CALL(w, fn, NULL, 0, 1,
+                                       F3.SetInt64(c, NP(0, vr), 1, NP(1, i), 1));
+    else if (!strcmp(fn, "setb")) CALL(w, fn, NULL, 0, 1,
+                                       F3.SetBoolean(c, NP(0, vr), 1, NP(1, b), 1));
     else if (!strcmp(fn, "gst")) CALL(w, fn, NULL, 0, 0, F3.GetFMUState(c, NULL));
     else if (!strcmp(fn, "fst")) CALL(w, fn, NULL, 0, 0, F3.FreeFMUState(c, NULL));
     else if (!strcmp(fn, "sst")) CALL(w, fn, NULL, 0, 1, F3.SetFMUState(c, NULL));
@@ -792,12 +802,15 @@ static void null3(World *w, const char *fn, unsigned mask, void *c)
                                           NP(2, b + 2), NP(3, r)));
     else if (!strcmp(fn, "setx")) CALL(w, fn, NULL, 0, 1, F3.SetContinuousStates(c, NULL, 6));
     else if (!strcmp(fn, "getx")) CALL(w, fn, NULL, 0, 0, F3.GetContinuousStates(c, NULL, 6));
-    else if (!strcmp(fn, "der")) CALL(w, fn, NULL, 0, 0, F3.GetContinuousStateDerivatives(c, NULL, 6));
+    else if (!strcmp(fn, "der")) CALL(w, fn, NULL, 0, 0,
+                                      F3.GetContinuousStateDerivatives(c, NULL, 6));
     else if (!strcmp(fn, "ind")) CALL(w, fn, NULL, 0, 0, F3.GetEventIndicators(c, NULL, 3));
-    else if (!strcmp(fn, "nominal")) CALL(w, fn, NULL, 0, 0, F3.GetNominalsOfContinuousStates(c, NULL, 6));
+    else if (!strcmp(fn, "nominal")) CALL(w, fn, NULL, 0, 0,
+                                          F3.GetNominalsOfContinuousStates(c, NULL, 6));
     else if (!strcmp(fn, "nind")) CALL(w, fn, NULL, 0, 0, F3.GetNumberOfEventIndicators(c, NULL));
     else if (!strcmp(fn, "nx")) CALL(w, fn, NULL, 0, 0, F3.GetNumberOfContinuousStates(c, NULL));
-    else if (!strcmp(fn, "debug")) CALL(w, fn, NULL, 0, 0, F3.SetDebugLogging(c, fmi3True, 3, NULL));
+    else if (!strcmp(fn, "debug")) CALL(w, fn, NULL, 0, 0,
+                                        F3.SetDebugLogging(c, fmi3True, 3, NULL));
     else if (!strcmp(fn, "init"))
         CALL(w, fn, NULL, 0, 1, F3.EnterInitializationMode(c, 0, 0, 0, 0, 0));
     else if (!strcmp(fn, "exit")) CALL(w, fn, NULL, 0, 1, F3.ExitInitializationMode(c));
