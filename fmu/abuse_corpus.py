@@ -151,26 +151,29 @@ def states(rng: random.Random, n: int) -> list[Case]:
 
 
 #: Bytes of a serialised state's structured part (head, model, shot) that "fields" covers:
-#: every 4-byte word, each set to an extreme int32 (and every 8-byte one to a nasty double)
-#: with the checksum made right, so that the checks behind it are reached.
+#: every 4-byte word set to each of FIELD_INTS (and every 8-byte one to each of
+#: FIELD_DOUBLES) with the checksum made right, so that the checks behind it are reached.
 FIELD_BYTES = 3072
+FIELD_INTS = ("-1", "7", "65536", "2147483647")
+FIELD_DOUBLES = ("nan", "-1e300")
 
 
 def fields(rng: random.Random, per_case: int = 24, stride: int = 1) -> list[Case]:
-    """Every word of the structured part of a state, one at a time, set to an extreme value
+    """Every word of the structured part of a state, one at a time, set to extreme values
     behind a right checksum; after each, the state is restored and the run goes on."""
     cases = []
     for fmi in (2, 3):
         for kind in ("cs", "me"):
+            step = "run 3 1e-3" if kind == "cs" else "merun 3 1e-3"
             words = list(range(0, FIELD_BYTES, 4 * stride))
             for k in range(0, len(words), per_case):
                 lines = [*_running(rng, fmi, kind), "gst 0", "ser 0 0"]
                 for at in words[k:k + per_case]:
-                    value = (f"i32 @{at} {rng.choice(I32)}" if at % 8 or rng.random() < 0.5
-                             else f"f64 @{at} {rng.choice(NASTY)}")
-                    step = "run 3 1e-3" if kind == "cs" else "merun 3 1e-3"
-                    lines += ["mut 1 copy 0", f"mut 1 {value}", "mut 1 fix", "des 1 2", "sst 2",
-                              step, "getr", "fst 2", "sst 0"]
+                    values = [f"i32 @{at} {v}" for v in FIELD_INTS]
+                    values += [f"f64 @{at} {v}" for v in FIELD_DOUBLES if at % 8 == 0]
+                    for value in values:
+                        lines += ["mut 1 copy 0", f"mut 1 {value}", "mut 1 fix", "des 1 2",
+                                  "sst 2", step, "getr", "fst 2", "sst 0"]
                 cases.append(Case(f"fields-{fmi}{kind}-{words[k]}", tuple(lines)))
     return cases
 
