@@ -226,9 +226,9 @@ static fmi2Status refresh(Instance *c)
     return treb_model_outputs(&c->k.m, msg) ? fail(c, msg) : fmi2OK;
 }
 
-/* Read nvr values of type into out (via put, one at a time: any nvr). */
+/* Read nvr values of type into out (one at a time: any nvr). */
 static fmi2Status get(Instance *c, const char *fn, const fmi2ValueReference vr[], size_t nvr,
-                      int type, void *out, void (*put)(void *, size_t, double))
+                      int type, void *out)
 {
     CHECK(fn, AFTER_INIT);
     if (nvr == 0) return fmi2OK;
@@ -237,7 +237,10 @@ static fmi2Status get(Instance *c, const char *fn, const fmi2ValueReference vr[]
     if (refresh(c) != fmi2OK) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
         if (!valid_vr(c, vr[i], type)) return fmi2Error;
-        put(out, i, c->k.m.values[vr[i]]);
+        double v = c->k.m.values[vr[i]];
+        if (type == TREB_REAL) ((fmi2Real *)out)[i] = v;
+        else if (type == TREB_INTEGER) ((fmi2Integer *)out)[i] = (fmi2Integer)v;
+        else ((fmi2Boolean *)out)[i] = v != 0.0;
     }
     return fmi2OK;
 }
@@ -265,9 +268,6 @@ static fmi2Status set(Instance *c, const char *fn, const fmi2ValueReference vr[]
     return fmi2OK;
 }
 
-static void put_real(void *out, size_t i, double v) { ((fmi2Real *)out)[i] = v; }
-static void put_integer(void *out, size_t i, double v) { ((fmi2Integer *)out)[i] = (fmi2Integer)v; }
-static void put_boolean(void *out, size_t i, double v) { ((fmi2Boolean *)out)[i] = v != 0.0; }
 static double take_real(const void *in, size_t i) { return ((const fmi2Real *)in)[i]; }
 static double take_integer(const void *in, size_t i) { return ((const fmi2Integer *)in)[i]; }
 static double take_boolean(const void *in, size_t i)
@@ -278,19 +278,19 @@ static double take_boolean(const void *in, size_t i)
 fmi2Status fmi2GetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[])
 {
-    return get(comp, "fmi2GetReal", vr, nvr, TREB_REAL, value, put_real);
+    return get(comp, "fmi2GetReal", vr, nvr, TREB_REAL, value);
 }
 
 fmi2Status fmi2GetInteger(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Integer value[])
 {
-    return get(comp, "fmi2GetInteger", vr, nvr, TREB_INTEGER, value, put_integer);
+    return get(comp, "fmi2GetInteger", vr, nvr, TREB_INTEGER, value);
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Boolean value[])
 {
-    return get(comp, "fmi2GetBoolean", vr, nvr, TREB_BOOLEAN, value, put_boolean);
+    return get(comp, "fmi2GetBoolean", vr, nvr, TREB_BOOLEAN, value);
 }
 
 fmi2Status fmi2GetString(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr,

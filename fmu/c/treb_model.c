@@ -45,13 +45,14 @@ static int finite_values(const double *v, int n, int first, double t, const char
  * simulator's), every other output must be finite. */
 static int publish(TrebModel *m, int phase, const double *out, char *msg)
 {
-    double check[TREB_N_OUTPUTS];
-    memcpy(check, out, sizeof check);
-    if (m->shot.sc.projectile == 3)
-        check[TREB_OUT_x_m] = check[TREB_OUT_y_m] = check[TREB_OUT_vx_m] = check[TREB_OUT_vy_m]
-            = 0.0;
-    if (finite_values(check, TREB_N_OUTPUTS, TREB_VR_FIRST_OUTPUT, m->time, "outputs", msg))
-        return -1;
+    int dry = m->shot.sc.projectile == 3;
+    for (int j = 0; j < TREB_N_OUTPUTS; j++) {
+        if (!isfinite(out[j]) && !(dry && (j == TREB_OUT_x_m || j == TREB_OUT_y_m
+                                           || j == TREB_OUT_vx_m || j == TREB_OUT_vy_m))) {
+            finite_values(out + j, 1, TREB_VR_FIRST_OUTPUT + j, m->time, "outputs", msg);
+            return -1;
+        }
+    }
     m->values[TREB_VR_phase] = phase;
     for (int j = 0; j < TREB_N_OUTPUTS; j++) m->values[TREB_VR_FIRST_OUTPUT + j] = out[j];
     m->outputs_valid = 1;

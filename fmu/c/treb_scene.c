@@ -105,15 +105,23 @@ static void key_of(int vr, char *out, size_t n)
 int treb_parameter_check(int vr, double value, char *msg)
 {
     char where[64], problem[256];
-    const char *unit = TREB_VAR_UNIT[vr];
     if (vr < 0 || vr >= TREB_NV) return fail(msg, "value reference", "out of range");
+    double lo = TREB_VAR_MIN[vr], hi = TREB_VAR_MAX[vr];
+    int choice = TREB_VAR_TYPE[vr] == TREB_ENUMERATION || TREB_VAR_TYPE[vr] == TREB_INTEGER
+                 || TREB_VAR_TYPE[vr] == TREB_BOOLEAN;
+    if (isfinite(value) && value >= lo && value <= hi && (!choice || value == floor(value))) {
+        int low = 0;  /* the common case, checked without formatting anything */
+        for (size_t k = 0; k < sizeof FLOORS / sizeof FLOORS[0]; k++)
+            low |= FLOORS[k].vr == vr && value > 0.0 && value < FLOORS[k].floor;
+        if (!low) return 0;
+    }
+    const char *unit = TREB_VAR_UNIT[vr];
     key_of(vr, where, sizeof where);
     if (!isfinite(value)) {
         snprintf(problem, sizeof problem, "must be finite, got %g", value);
         return fail(msg, where, problem);
     }
-    double lo = TREB_VAR_MIN[vr], hi = TREB_VAR_MAX[vr];
-    if (TREB_VAR_TYPE[vr] == TREB_ENUMERATION || TREB_VAR_TYPE[vr] == TREB_INTEGER) {
+    if (choice) {
         if (!(value >= lo && value <= hi && value == floor(value))) {
             snprintf(problem, sizeof problem, "= %.17g: must be one of the choices %g to %g",
                      value, lo, hi);
