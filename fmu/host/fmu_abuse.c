@@ -68,6 +68,9 @@
 #include "fmi2Functions.h"
 #include "fmi3Functions.h"
 
+#define NX 8  /* the FMU's continuous states: theta, psi, phi, their rates, the two lost
+                energies of friction (fmu/model_description.py STATES) */
+
 #define NSLOT 4
 #define MAXARG 16
 #define MAXREAL 256
@@ -168,7 +171,7 @@ typedef struct {
     unsigned char *buf[NSLOT];
     size_t len[NSLOT];
     double t, t0;           /* the host's time, the start time */
-    double x[6];
+    double x[NX];
     double z[3];
 } World;
 
@@ -427,15 +430,16 @@ static int me_call(World *w, const char *op, int argc, char **argv)
 {
     void *c = w->c[w->cur];
     int st = 0, f2 = w->fmi == 2;
-    double v[6];
+    double v[NX];
     if (!strcmp(op, "time")) {
         double t = argc > 1 ? num(argv[1]) : w->t;
         if (f2) CALL(w, "time", NULL, 0, 1, F2.SetTime(c, t));
         else CALL(w, "time", NULL, 0, 1, F3.SetTime(c, t));
         if (st <= 1) w->t = t;
     } else if (!strcmp(op, "setx")) {
-        size_t n = 6;
-        for (int k = 0; k < 6; k++) w->x[k] = argc > 1 + k ? num(argv[1 + k]) : w->x[k];
+        size_t n = NX;
+        for (int k = 0; k < 6; k++)  /* the corpus gives the angles and rates, then a count */
+            w->x[k] = argc > 1 + k ? num(argv[1 + k]) : w->x[k];
         if (argc > 7) n = (size_t)atol(argv[7]);
         double x[64] = {0};
         memcpy(x, w->x, sizeof w->x);
@@ -443,12 +447,12 @@ static int me_call(World *w, const char *op, int argc, char **argv)
         if (f2) CALL(w, "setx", NULL, 0, 1, F2.SetContinuousStates(c, x, n));
         else CALL(w, "setx", NULL, 0, 1, F3.SetContinuousStates(c, x, n));
     } else if (!strcmp(op, "getx")) {
-        if (f2) CALL(w, "getx", v, 6, 0, F2.GetContinuousStates(c, v, 6));
-        else CALL(w, "getx", v, 6, 0, F3.GetContinuousStates(c, v, 6));
+        if (f2) CALL(w, "getx", v, NX, 0, F2.GetContinuousStates(c, v, NX));
+        else CALL(w, "getx", v, NX, 0, F3.GetContinuousStates(c, v, NX));
         if (st <= 1) memcpy(w->x, v, sizeof v);
     } else if (!strcmp(op, "der")) {
-        if (f2) CALL(w, "der", v, 6, 0, F2.GetDerivatives(c, v, 6));
-        else CALL(w, "der", v, 6, 0, F3.GetContinuousStateDerivatives(c, v, 6));
+        if (f2) CALL(w, "der", v, NX, 0, F2.GetDerivatives(c, v, NX));
+        else CALL(w, "der", v, NX, 0, F3.GetContinuousStateDerivatives(c, v, NX));
     } else if (!strcmp(op, "ind")) {
         if (f2) CALL(w, "ind", v, 3, 0, F2.GetEventIndicators(c, v, 3));
         else CALL(w, "ind", v, 3, 0, F3.GetEventIndicators(c, v, 3));
@@ -501,20 +505,20 @@ static void op_merun(World *w, int argc, char **argv)
     long n = argc > 1 ? atol(argv[1]) : 10;
     double h = argc > 2 ? num(argv[2]) : 1e-3;
     char *none[1] = {NULL};
-    double dx[6], z[3];
+    double dx[NX], z[3];
     if (me_call(w, "cont", 0, none) > 1) return;
     if (me_call(w, "getx", 0, none) > 1) return;
     for (long k = 0; k < n; k++) {
         void *c = w->c[w->cur];
         int st;
-        if (w->fmi == 2) CALL(w, "der", dx, 6, 0, F2.GetDerivatives(c, dx, 6));
-        else CALL(w, "der", dx, 6, 0, F3.GetContinuousStateDerivatives(c, dx, 6));
+        if (w->fmi == 2) CALL(w, "der", dx, NX, 0, F2.GetDerivatives(c, dx, NX));
+        else CALL(w, "der", dx, NX, 0, F3.GetContinuousStateDerivatives(c, dx, NX));
         if (st > 1) return;
         char tb[64];
         snprintf(tb, sizeof tb, "%.17g", w->t + h);
         char *targs[2] = {"time", tb};
         if (me_call(w, "time", 2, targs) > 1) return;
-        for (int i = 0; i < 6; i++) w->x[i] += h * dx[i];
+        for (int i = 0; i < NX; i++) w->x[i] += h * dx[i];
         char *xargs[1] = {"setx"};
         if (me_call(w, "setx", 1, xargs) > 1) return;
         if (me_call(w, "done", 0, none) > 1) return;
@@ -730,12 +734,12 @@ static void null2(World *w, const char *fn, unsigned mask, void *c)
     else if (!strcmp(fn, "disc")) CALL(w, fn, NULL, 0, 1, F2.NewDiscreteStates(c, NP(0, &info)));
     else if (!strcmp(fn, "done"))
         CALL(w, fn, NULL, 0, 1, F2.CompletedIntegratorStep(c, fmi2True, NP(0, b), NP(1, b + 1)));
-    else if (!strcmp(fn, "setx")) CALL(w, fn, NULL, 0, 1, F2.SetContinuousStates(c, NULL, 6));
-    else if (!strcmp(fn, "getx")) CALL(w, fn, NULL, 0, 0, F2.GetContinuousStates(c, NULL, 6));
-    else if (!strcmp(fn, "der")) CALL(w, fn, NULL, 0, 0, F2.GetDerivatives(c, NULL, 6));
+    else if (!strcmp(fn, "setx")) CALL(w, fn, NULL, 0, 1, F2.SetContinuousStates(c, NULL, NX));
+    else if (!strcmp(fn, "getx")) CALL(w, fn, NULL, 0, 0, F2.GetContinuousStates(c, NULL, NX));
+    else if (!strcmp(fn, "der")) CALL(w, fn, NULL, 0, 0, F2.GetDerivatives(c, NULL, NX));
     else if (!strcmp(fn, "ind")) CALL(w, fn, NULL, 0, 0, F2.GetEventIndicators(c, NULL, 3));
     else if (!strcmp(fn, "nominal")) CALL(w, fn, NULL, 0, 0,
-                                          F2.GetNominalsOfContinuousStates(c, NULL, 6));
+                                          F2.GetNominalsOfContinuousStates(c, NULL, NX));
     else if (!strcmp(fn, "debug")) CALL(w, fn, NULL, 0, 0,
                                         F2.SetDebugLogging(c, fmi2True, 3, NULL));
     else if (!strcmp(fn, "step")) CALL(w, fn, NULL, 0, 1, F2.DoStep(c, w->t, 1e-3, fmi2True));
@@ -800,13 +804,13 @@ static void null3(World *w, const char *fn, unsigned mask, void *c)
     else if (!strcmp(fn, "step"))
         CALL(w, fn, NULL, 0, 1, F3.DoStep(c, w->t, 1e-3, fmi3True, NP(0, b), NP(1, b + 1),
                                           NP(2, b + 2), NP(3, r)));
-    else if (!strcmp(fn, "setx")) CALL(w, fn, NULL, 0, 1, F3.SetContinuousStates(c, NULL, 6));
-    else if (!strcmp(fn, "getx")) CALL(w, fn, NULL, 0, 0, F3.GetContinuousStates(c, NULL, 6));
+    else if (!strcmp(fn, "setx")) CALL(w, fn, NULL, 0, 1, F3.SetContinuousStates(c, NULL, NX));
+    else if (!strcmp(fn, "getx")) CALL(w, fn, NULL, 0, 0, F3.GetContinuousStates(c, NULL, NX));
     else if (!strcmp(fn, "der")) CALL(w, fn, NULL, 0, 0,
-                                      F3.GetContinuousStateDerivatives(c, NULL, 6));
+                                      F3.GetContinuousStateDerivatives(c, NULL, NX));
     else if (!strcmp(fn, "ind")) CALL(w, fn, NULL, 0, 0, F3.GetEventIndicators(c, NULL, 3));
     else if (!strcmp(fn, "nominal")) CALL(w, fn, NULL, 0, 0,
-                                          F3.GetNominalsOfContinuousStates(c, NULL, 6));
+                                          F3.GetNominalsOfContinuousStates(c, NULL, NX));
     else if (!strcmp(fn, "nind")) CALL(w, fn, NULL, 0, 0, F3.GetNumberOfEventIndicators(c, NULL));
     else if (!strcmp(fn, "nx")) CALL(w, fn, NULL, 0, 0, F3.GetNumberOfContinuousStates(c, NULL));
     else if (!strcmp(fn, "debug")) CALL(w, fn, NULL, 0, 0,
