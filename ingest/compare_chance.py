@@ -20,6 +20,7 @@ from trebuchet.ingest.compare_metrics import (
     outside_spans,
     shown_span,
 )
+from trebuchet.ingest.identification.chance import fit_chance_levels
 from trebuchet.ingest.reconstruction import reconstruction_of
 from trebuchet.ingest.uncertainty import BAND_SD
 from trebuchet.model.scene import Scene
@@ -134,6 +135,12 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
     from trebuchet.ingest.reconstruct import reconstruct
 
     a = reconstruction_of(measured)
+    band = getattr(a.identification, "band", None)
+    if a.method == "fit" and band is not None:  # issue 23: the fitted engine's error model
+        return fit_chance_levels(measured, band, {q.column: compared_rows(q, measured, predicted)
+                                                  for q in quantities},
+                                 [q.column for q in quantities], band_sd=band_sd, level=level,
+                                 seed=seed, draws=draws)
     noise = a.noise
     # every event is found in each simulated log as in the real one: their errors and sd
     # shape the loads and bands of the frames around them
@@ -152,7 +159,7 @@ def chance_levels(measured: pd.DataFrame, predicted: pd.DataFrame, scene: Scene,
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                sim = reconstruct(log, scene, form=a.form, trough=a.trough)
+                sim = reconstruct(log, scene, form=a.form, trough=a.trough, method=a.method)
             except TrebuchetInputError:
                 continue
         sim.index = measured.index

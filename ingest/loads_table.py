@@ -21,7 +21,12 @@ import pandas as pd
 from scipy.special import ndtr
 
 from trebuchet.errors import TrebuchetInputError
-from trebuchet.ingest.advisory import ADVISED, resolution_advisories
+from trebuchet.ingest.advisory import (
+    ADVISED,
+    peak_width_advisories,
+    resolution_advisories,
+    smoother_bandwidth,
+)
 from trebuchet.ingest.events.lift_off import (
     gap_widened_sd,
     lift_off_choice,
@@ -339,6 +344,8 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
         {c: sd[:, j] for c, j in col.items()}, {c: prop.orders(c) for c in prop.order_names},
         {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg,
         options.resolution_fraction, lines=lines)
+    advice += peak_width_advisories(t, phase > 0, {c: prop.value[:, j] for c, j in col.items()},
+                                    smoother_bandwidth(fit.noise, t), fps, noise_deg, lines=lines)
     del ev_var
     result = _table(est, state, t, trigger, phase, prop.names, prop.value, sd)
     del prop, sd

@@ -31,7 +31,9 @@ The pipeline (:func:`reconstruct`), each stage a function of its inputs:
 1. :func:`read_stage`: the log read and checked against the scene (its swing), posed by
    the user's calibration, and its angles taken through the camera the engine calibrates
    (:mod:`.calibrated_angles`);
-2. :func:`check_shot` (a log with no shot is refused), then
+2. :func:`check_shot` (a log with no shot is refused); :func:`fitted_stage` (issue 23: the
+   loads of the scene's engine fitted to a log of angles, where the fit passes its check,
+   end here); else
    :func:`~.release_stage.smoothed_with_release`: the log smoothed with the release its
    sources agree on (the sling track's end, the tracked stone's flight, the engine's
    equations, the smoother's jump search), a given release before the trigger refused
@@ -73,6 +75,7 @@ from trebuchet.ingest.events.trough_departure import (
     stone_lift_off,
 )
 from trebuchet.ingest.geometry.user_calibration import UserCalibration, read_calibration
+from trebuchet.ingest.identification.fitted_loads import fitted_reconstruction
 from trebuchet.ingest.loads_table import STATE_COLUMNS, loads_from_smoothed, shot_phases
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
 from trebuchet.ingest.logs.result import read_log_info
@@ -107,7 +110,7 @@ __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_pha
            "sling_track_end", "PRESETS", "smoother_settings", "propagation_order",
            "STATE_COLUMNS", "FORMS", "checking_settings", "ReadStage", "read_stage",
            "refined_estimate", "warn_checks", "stone_departure", "check_shot",
-           "check_given_release", "matched_scene"]
+           "check_given_release", "matched_scene", "fitted_stage"]
 
 
 def _log_frame(path_or_log, fps, columns, points, read_options) -> pd.DataFrame:
@@ -299,6 +302,24 @@ def matched_scene(est: pd.DataFrame, scene: Scene, options: ReconstructOptions,
     return with_smoothing(est, smoothing_of(est).noted(said))
 
 
+def fitted_stage(read: ReadStage, scene: Scene, given: Mapping[str, float | None],
+                 options: ReconstructOptions):
+    """Issue 23's hook: the loads of the scene's engine fitted to the log
+    (:func:`~.identification.fitted_loads.fitted_reconstruction`, its ``result`` None where
+    the fit did not pass its check or was not asked for), or None with ``method="smooth"``.
+    A log with a given release before the trigger is refused first (the smoothing path
+    refuses it after its trigger is found)."""
+    if options.method == "smooth":
+        return None
+    fitted = fitted_reconstruction(read.log, scene, given, form=options.form,
+                                   trough=options.trough,
+                                   resolution_fraction=options.resolution_fraction,
+                                   source=read.source, method=options.method)
+    if fitted is not None and fitted.result is not None:
+        check_given_release(given, fitted.result.attrs["events"].get("trigger"), read.source)
+    return fitted
+
+
 def warn_checks(result: pd.DataFrame, source: str, warned: tuple[str, ...] = ()) -> None:
     """Stage 5 of :func:`reconstruct`: the events' disagreements and uncertainty, the
     geometry findings and the resolution advisory of ``result`` warned
@@ -321,7 +342,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
                 points: Mapping[str, str] | None = None, *,
                 events: Mapping[str, float | None] | None = None,
                 form: str | None = None, trough: str | None = None,
-                image_calibration: str | None = None,
+                image_calibration: str | None = None, method: str | None = None,
                 q: Noise = None, r: Noise = None,
                 min_likelihood: float = MIN_LIKELIHOOD,
                 time_unit: str | None = None, angle_unit: str | None = None,
@@ -351,6 +372,10 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
         "measured" (see the module doc); image_calibration : "engine" (default, point
         logs: the engine calibrates the image) or "none" (``ReconstructOptions``); they
         override ``options``.
+    method : None (default): the loads of the scene's engine fitted to a log of angles
+        where the fit passes its residual check, else the smoother's (with a note why);
+        "fit": the same for a log of tracked points too; "smooth": the smoother's
+        (:mod:`.identification.fitted_loads`, docs/identify.md).
     q, r : the smoother's process noise and measurement noise sd (rad), per angle or one
         number; default maximum likelihood.
     options : :class:`ReconstructOptions`.
@@ -380,7 +405,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     """
     if options is None:
         options = ReconstructOptions()
-    changes = {k: v for k, v in (("form", form), ("trough", trough),
+    changes = {k: v for k, v in (("form", form), ("trough", trough), ("method", method),
                                  ("image_calibration", image_calibration)) if v is not None}
     if changes:
         options = dataclasses.replace(options, **changes)
@@ -392,6 +417,9 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     t_log, angles_log = validated_log(read.log, smoother_settings(options).min_frames)
     check_shot(t_log, angles_log, read.source)
     given = {} if events is None else checked_events(events, t_log, read.source)
+    fitted = fitted_stage(read, scene, given, options)
+    if fitted is not None and fitted.result is not None:
+        return fitted.result
     shot = smoothed_with_release(read.log, angles_log, scene, options, given, q, r,
                                  plane=None if read.calibrated is None
                                  else read.calibrated.plane)
@@ -410,4 +438,4 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     warned = () if shot.choice is None or shot.choice.warning is None \
         else (shot.choice.warning,)
     warn_checks(result, read.source, warned)
-    return result
+    return result if fitted is None else fitted.explained(result)  # why not the fit's loads

@@ -11,7 +11,7 @@ import numpy as np
 
 from trebuchet.errors import TrebuchetInputError, check_choice
 from trebuchet.ingest.events.release_model import ReleaseFit
-from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, TROUGH
+from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, METHODS, TROUGH
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.smooth import SmoothSettings
 
@@ -158,8 +158,10 @@ class ReconstructOptions:
     release_model: ReleaseFit | None = ReleaseFit()
     image_calibration: str = "engine"
     scene_mismatch: str = "refuse"
+    method: str | None = None  # issue 23: None (default), "fit" or "smooth" (fitted_loads.py)
 
     def __post_init__(self) -> None:
+        check_choice("reconstruct", "method", self.method, (None, *METHODS))
         check_choice("reconstruct", "preset", self.preset, tuple(PRESETS))
         check_choice("reconstruct", "image_calibration", self.image_calibration,
                      IMAGE_CALIBRATIONS)

@@ -54,6 +54,13 @@ class Reconstruction:
         Sentences: angles outside the scene's geometry, a slack sling.
     notes:
         Sentences about the log, the smoothing and the events.
+    method:
+        ``"smooth"``: the loads of the smoothed angles; ``"fit"``: of the fitted engine
+        (:mod:`~trebuchet.ingest.identification.fitted_loads`).
+    identification:
+        The engine identified from the log
+        (:class:`~trebuchet.ingest.identification.result.Identification`) where a fit ran,
+        else None (with ``method="smooth"`` it failed its check, or was not asked for).
     event_warnings:
         Sentences about events whose sources disagree (also in ``notes``), for
         :func:`~trebuchet.ingest.reconstruct.reconstruct` to warn.
@@ -71,6 +78,8 @@ class Reconstruction:
     advisories: tuple[Advisory, ...] = ()
     validity: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    method: str = "smooth"
+    identification: Any = None
     event_warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -93,7 +102,8 @@ class Reconstruction:
         return (_rebuild, (dict(self.events), dict(self.event_sd), dict(self.event_sources),
                            {a: dict(v) for a, v in self.noise.items()}, self.form,
                            self.trough, self.model, self.preset, self.fps, self.advisories,
-                           self.validity, self.notes, self.event_warnings))
+                           self.validity, self.notes, self.method, self.identification,
+                           self.event_warnings))
 
 
 def _rebuild(*fields) -> Reconstruction:

@@ -32,6 +32,7 @@ from trebuchet.ingest.events.release_model import (
     scene_doubt,
 )
 from trebuchet.ingest.events.release_sources import (
+    MIN_FLIGHT_FRAMES,
     ReleaseChoice,
     SceneTiming,
     TrackEnd,
@@ -262,12 +263,14 @@ def _seen_leaving(info, track_end: tuple[float, float]) -> StoneRelease:
     """The stone seen leaving its sling's circle where ``read_log`` cut φ
     (``ReadLog.leaves_sling``: its time and sd, s) as a stone source of the arbitration;
     its frames of flight are the stone's tracked positions after the cut."""
-    t = np.asarray(info.points["t"], dtype=float)
-    x = np.asarray(info.points.get("projectile_x", np.full(t.size, np.nan)), dtype=float)
-    after = np.isfinite(x) & (t > track_end[0])
+    if info.points is None or "projectile_x" not in info.points:
+        flight = MIN_FLIGHT_FRAMES  # read_log cut φ where the stone had left by frames
+    else:
+        t = np.asarray(info.points["t"], dtype=float)
+        x = np.asarray(info.points["projectile_x"], dtype=float)
+        flight = int((np.isfinite(x) & (t > track_end[0])).sum())
     return StoneRelease(float(track_end[0]), float(track_end[1]), float("nan"), float("inf"),
-                        int(after.sum()), float(track_end[0]),
-                        "the tracked stone leaves its sling's circle")
+                        flight, float(track_end[0]), "the tracked stone leaves its sling's circle")
 
 
 #: s: a lost track's release is sought again with the sling's track cut this much earlier

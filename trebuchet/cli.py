@@ -46,6 +46,7 @@ ROOMS = (
     "trebuchet.model.sweep_cli",
     "trebuchet.model.design_cli",
     "trebuchet.ingest.cli",
+    "trebuchet.ingest.identify_cli",
     "trebuchet.report.compare_cli",
     "trebuchet.fmu.cli",
 )
