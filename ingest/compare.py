@@ -60,7 +60,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError, check_choice
+from trebuchet.core.errors import TrebuchetInputError, check_choice
 from trebuchet.ingest.compare_chance import chance_levels, with_chance
 from trebuchet.ingest.compare_metrics import (
     CHANCE_COLUMNS,

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.reconstruction import Reconstruction
 from trebuchet.ingest.uncertainty import BAND_SD
 from trebuchet.model.timeline import shot_events

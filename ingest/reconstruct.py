@@ -21,7 +21,7 @@ smoothed state, with
   profile, the release's ``event_sd_frames`` frames or the track-end gap / √12);
 - **checks**: angles that leave the scene's geometry and a slack sling
   (:mod:`.scene_fit`), and the resolution advisory (:mod:`.advisory`), both as
-  :class:`~trebuchet.errors.ModelValidityWarning` and in ``attrs``.
+  :class:`~trebuchet.core.errors.ModelValidityWarning` and in ``attrs``.
 
 Measured accuracy of both forms and the bands' coverage: ``bench/ingest_accuracy.py``.
 Units: SI (s, rad, rad/s, rad/s², N, N m, W, J, m, m/s).
@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import (
+from trebuchet.core.errors import (
     ModelValidityWarning,
     TrebuchetDataWarning,
     TrebuchetInputError,

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError, check_choice
+from trebuchet.core.errors import TrebuchetInputError, check_choice
 from trebuchet.ingest.events.release_model import ReleaseFit
 from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, METHODS, TROUGH
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch

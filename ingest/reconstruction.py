@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.advisory import Advisory
 
 

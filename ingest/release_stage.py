@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning, warn_at_caller
+from trebuchet.core.errors import ModelValidityWarning, warn_at_caller
 from trebuchet.ingest.events.release_model import (
     ModelRelease,
     ReleaseFit,

@@ -10,7 +10,7 @@ import warnings
 import numpy as np
 import pytest
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.ingest.logs.read_log import read_log, write_log
 from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
 

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.ingest.events.release_model import (
     ModelRelease,
     ReleaseFit,

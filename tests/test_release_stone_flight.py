@@ -12,7 +12,7 @@ import pytest
 
 from bench.video.export import write_deeplabcut
 from bench.video.truth import POINTS, Filming, engine_points, frame_times, truth_table
-from trebuchet.errors import ModelValidityWarning
+from trebuchet.core.errors import ModelValidityWarning
 from trebuchet.ingest.events.release_model import ModelRelease
 from trebuchet.ingest.events.release_sources import (
     SceneTiming,

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from data_samples import make_samples as ms
-from trebuchet.errors import TrebuchetDataWarning
+from trebuchet.core.errors import TrebuchetDataWarning
 from trebuchet.ingest.geometry.sling_circle import first_row_off_circle, sling_ratio
 from trebuchet.ingest.logs.read_log import read_log
 from trebuchet.ingest.reconstruct import reconstruct

@@ -48,7 +48,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.stats import chi2 as chi2_distribution
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.events.detection import refined_profile
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.scene import Scene

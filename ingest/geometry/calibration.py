@@ -42,7 +42,7 @@ from collections.abc import Mapping
 import numpy as np
 from scipy.optimize import least_squares
 
-from trebuchet.errors import TrebuchetInputError, check_choice
+from trebuchet.core.errors import TrebuchetInputError, check_choice
 from trebuchet.model.scene import Engine
 
 from .block_least_squares import block_least_squares

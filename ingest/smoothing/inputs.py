@@ -9,7 +9,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import (
+from trebuchet.core.errors import (
     TrebuchetDataWarning,
     TrebuchetInputError,
     on_command_line,
