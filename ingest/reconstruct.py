@@ -41,9 +41,9 @@ The pipeline (:func:`reconstruct`), each stage a function of its inputs:
    (:func:`matched_scene`);
 3. :func:`refined_estimate`: the notes of the first stages, the calibration's sd in the
    bands, the counterweight carried on past a lost track, the angles' systematic sd;
-4. :func:`~.loads_table.loads_from_smoothed`: phases, lift-off (the normal force's zero
-   weighed with the stone's departure from the trough, :func:`stone_departure`), loads
-   and their sd;
+4. :func:`loads_stage` (:func:`~.loads_table.loads_from_smoothed`): phases, lift-off
+   (the normal force's zero, checked by the stone's departure from the trough,
+   :func:`stone_departure`), loads and their sd;
 5. :func:`warn_checks`: the geometry findings and the resolution advisory warned.
 """
 
@@ -91,6 +91,7 @@ from trebuchet.ingest.reconstruct_options import (
 from trebuchet.ingest.reconstruction import Reconstruction, reconstruction_of
 from trebuchet.ingest.release_stage import (
     Noise,
+    SmoothedShot,
     log_source,
     sling_track_end,
     smoothed_with_release,
@@ -110,7 +111,7 @@ __all__ = ["ReconstructOptions", "reconstruct", "loads_from_smoothed", "shot_pha
            "sling_track_end", "PRESETS", "smoother_settings", "propagation_order",
            "STATE_COLUMNS", "FORMS", "checking_settings", "ReadStage", "read_stage",
            "refined_estimate", "warn_checks", "stone_departure", "check_shot",
-           "check_given_release", "matched_scene", "fitted_stage"]
+           "check_given_release", "matched_scene", "fitted_stage", "loads_stage"]
 
 
 def _log_frame(path_or_log, fps, columns, points, read_options) -> pd.DataFrame:
@@ -302,6 +303,25 @@ def matched_scene(est: pd.DataFrame, scene: Scene, options: ReconstructOptions,
     return with_smoothing(est, smoothing_of(est).noted(said))
 
 
+def loads_stage(est: pd.DataFrame, read: ReadStage, scene: Scene,
+                given: Mapping[str, float | None], options: ReconstructOptions,
+                shot: SmoothedShot, angles_log: np.ndarray) -> pd.DataFrame:
+    """Stage 4 of :func:`reconstruct`: :func:`~.loads_table.loads_from_smoothed` on the
+    refined ``est``, with the file's line numbers, the release's sd the release stage
+    gave, the stone's departure from the trough and which angles were tracked; the log's
+    :class:`~.logs.result.ReadLog` in ``attrs["log"]``."""
+    info = read_log_info(read.log)
+    lines = info.lines if info is not None and info.lines is not None \
+        and len(info.lines) == len(est) else None
+    result = loads_from_smoothed(est, scene, events=given, options=options, lines=lines,
+                                 release_sd=shot.release_sd,
+                                 stone_lift=stone_departure(read, est, scene),
+                                 tracked=np.isfinite(angles_log))
+    if info is not None:
+        result.attrs["log"] = info
+    return result
+
+
 def fitted_stage(read: ReadStage, scene: Scene, given: Mapping[str, float | None],
                  options: ReconstructOptions):
     """Issue 23's hook: the loads of the scene's engine fitted to the log
@@ -426,16 +446,7 @@ def reconstruct(path_or_log: str | Path | pd.DataFrame, scene: Scene | str | Pat
     check_given_release(given, smoothing_of(shot.est).events.get("trigger"), read.source)
     est = matched_scene(shot.est, scene, options, read.source)
     est = refined_estimate(est, read, scene, angles_log)
-    info = read_log_info(read.log)
-    lines = info.lines if info is not None and info.lines is not None \
-        and len(info.lines) == len(est) else None
-    result = loads_from_smoothed(est, scene, events=given, options=options, lines=lines,
-                                 release_sd=shot.release_sd,
-                                 stone_lift=stone_departure(read, est, scene),
-                                 tracked=np.isfinite(angles_log))
-    if info is not None:
-        result.attrs["log"] = info
-    warned = () if shot.choice is None or shot.choice.warning is None \
-        else (shot.choice.warning,)
-    warn_checks(result, read.source, warned)
+    result = loads_stage(est, read, scene, given, options, shot, angles_log)
+    warn_checks(result, read.source, () if shot.choice is None or shot.choice.warning is None
+                else (shot.choice.warning,))
     return result if fitted is None else fitted.explained(result)  # why not the fit's loads
