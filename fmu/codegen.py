@@ -393,12 +393,21 @@ PEAK_ROW_NAMES = ("F_S_abs", "F_H_abs", "F_R_abs", "F_R_perp", "torque", "sling_
                   "E_m", "E_M", "E_beam", "E_loss_pivot", "E_loss_hinge", "y_M")
 
 
-def _rows(phase: int, friction: bool, names: tuple[str, ...] = ROW_NAMES) -> Build:
+def _rows(phase: int, friction: bool, names: tuple[str, ...] = ROW_NAMES,
+          expand: bool = False) -> Build:
+    """The columns ``names`` of :data:`ROW_NAMES`; ``expand``: on symbols, the sines and
+    cosines of sums of angles expanded (sympy's ``expand_trig``), so that the C takes the
+    sine and cosine of each angle once (3 ``sincos`` where 5 were; the same numbers to
+    rounding)."""
     outputs = _outputs(phase, friction, ROW_NAMES[:-1])
     where = [ROW_NAMES.index(n) for n in names]
 
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
         row = [*outputs(e, g, H, x, lib), *_counterweight_height(e, g, H, x, lib)]
+        if expand and lib is not math:
+            import sympy as sp
+
+            return [sp.expand_trig(sp.sympify(row[i])) for i in where]
         return [row[i] for i in where]
     return build
 
@@ -420,8 +429,8 @@ def _engine_formulas() -> tuple[Formula, ...]:
                         ("_peak", PEAK_ROW_NAMES, "the columns of the peak search")):
                     out.append(Formula(f"rows{name}{suffix}", f"{what}: {doc} (dynamics + "
                                        "forces.row_loads)", (*_STATE[phase], *extra, *_REST),
-                                       names, _rows(phase, friction, names), fixed, dry=dry,
-                                       friction=friction))
+                                       names, _rows(phase, friction, names, bool(suffix)),
+                                       fixed, dry=dry, friction=friction))
     out.append(Formula("counterweight_height", "kinematics.counterweight_position_xy: the "
                        "height of the counterweight's centre (m)", ("th", "ps"), ("y_M",),
                        _counterweight_height))

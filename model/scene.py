@@ -173,20 +173,10 @@ def with_numbers(scene: Scene, numbers: Mapping[str, float | None], source: str 
     the scene's own are taken as they are (``from_dict`` has read them). Raises
     TrebuchetInputError where a rule refuses (``from_dict`` words it as the file does),
     KeyError for what it does not take: a word, a dry fire, a section the scene has not."""
-    e, st, rel, fr, fl = scene.engine, scene.start, scene.release, scene.friction, scene.flight
     if scene.projectile == "none":
         raise KeyError("with_numbers: a dry fire")
     read = Reader({}, source or scene.source)
-    theta, psi, phi, angle = (None if a is None else math.radians(math.degrees(a))
-                              for a in (st.theta, st.psi, st.phi, rel.velocity_angle))
-    v = {"engine.L1": e.L1, "engine.L2": e.L2, "engine.L_CM": e.L_CM, "engine.L3": e.L3,
-         "engine.L4": e.L4, "engine.m_b": e.m_b, "engine.M": e.M, "engine.m": e.m,
-         "engine.I": e.I, "engine.H": st.H, "start.theta": theta, "start.psi": psi,
-         "start.phi": phi, "release.time": rel.time, "release.velocity_angle": angle,
-         "environment.g": scene.g}
-    for section, obj in (("friction", fr), ("flight", fl if fl.model == "drag" else None)):
-        if obj is not None:
-            v.update((f"{section}.{k}", getattr(obj, k)) for k in SECTIONS[section] - {"model"})
+    v = _numbers_of(scene).copy()
     releases = 0
     for key, value in numbers.items():
         plain = key.removesuffix("_deg")
@@ -207,6 +197,32 @@ def with_numbers(scene: Scene, numbers: Mapping[str, float | None], source: str 
     if releases > 1:
         raise KeyError("with_numbers: two release rules")
     return _numbers_scene(scene, v, read, phi_of)
+
+
+def _numbers_of(scene: Scene) -> dict[str, Any]:
+    """The scene's numbers as its dict gives them back ("section.key": SI, angles in rad read
+    back from degrees), friction's and drag's where it has them. The last scene asked about is
+    remembered (a sweep asks about its base for each design)."""
+    global _last_numbers
+    last = _last_numbers  # one tuple, read and replaced whole (threads)
+    if last[0] is not scene:
+        e, st, rel, fr, fl = scene.engine, scene.start, scene.release, scene.friction, scene.flight
+        theta, psi, phi, angle = (None if a is None else math.radians(math.degrees(a))
+                                  for a in (st.theta, st.psi, st.phi, rel.velocity_angle))
+        v = {"engine.L1": e.L1, "engine.L2": e.L2, "engine.L_CM": e.L_CM, "engine.L3": e.L3,
+             "engine.L4": e.L4, "engine.m_b": e.m_b, "engine.M": e.M, "engine.m": e.m,
+             "engine.I": e.I, "engine.H": st.H, "start.theta": theta, "start.psi": psi,
+             "start.phi": phi, "release.time": rel.time, "release.velocity_angle": angle,
+             "environment.g": scene.g}
+        for section, obj in (("friction", fr), ("flight", fl if fl.model == "drag" else None)):
+            if obj is not None:
+                v.update((f"{section}.{k}", getattr(obj, k))
+                         for k in SECTIONS[section] - {"model"})
+        last = _last_numbers = (scene, v)
+    return last[1]
+
+
+_last_numbers: tuple[Scene | None, dict[str, Any]] = (None, {})
 
 
 def _numbers_scene(scene: Scene, v: dict[str, Any], read: Reader,

@@ -1,13 +1,16 @@
 """The figures of one shot without its table: release, range, peak loads, clearance.
 
 :func:`shot_figures` is the summary-only path of sweeps and of the optimiser
-(:mod:`trebuchet.model.design`): it integrates the shot with
-:func:`~trebuchet.model.simulate.integrate` and reduces the peaks from the integrator's own
-steps in compiled code (:mod:`trebuchet.model.summary_kernel`), with no DataFrame and no table
-of rows. The peaks are then the extrema over the continuous shot, located on the dense output
-to ~1e-6 s. Given an output step ``dt`` it instead evaluates every load on the rows of
-:func:`~trebuchet.model.simulate.simulate`'s table (the same functions, the same times) and
-takes their extrema, as a table of that step would show them.
+(:mod:`trebuchet.model.design`), with no DataFrame and no table of rows. Where the C engine
+runs, the shot, its events and the search of its peaks over the continuous shot are one call
+of the generated C (:func:`~trebuchet.model.c_peaks.design_peaks`; :func:`designs_figures` and
+:func:`designs_values` take many designs a call); elsewhere (no compiler, or a shot the C
+refuses) it integrates the shot with :func:`~trebuchet.model.simulate.integrate` and the
+numba kernel of :mod:`trebuchet.model.summary_kernel` searches the integrator's own steps,
+the same search. The peaks are then the extrema over the continuous shot, located on the
+dense output to ~1e-6 s. Given an output step ``dt`` it instead evaluates every load on the
+rows of :func:`~trebuchet.model.simulate.simulate`'s table (the same functions, the same
+times) and takes their extrema, as a table of that step would show them.
 
 Windows: the peaks cover the shot from the trigger to ``after_release`` s past the release
 (0.5 s by default, as ``simulate``); the counterweight's clearance covers it to
@@ -46,7 +49,7 @@ from trebuchet.model.simulate import (
 from trebuchet.model.summary_kernel import EXTREMA, reduce_phases
 
 __all__ = ["FIGURES", "CLEARANCE_WINDOW", "ShotFigures", "shot_figures", "designs_figures",
-           "throw_status",
+           "designs_values", "throw_status",
            "STATUS_OK", "STATUS_BACKWARD", "STATUS_GROUND"]
 
 #: s past the release over which ``cw_clearance`` is taken.
@@ -192,9 +195,11 @@ def shot_figures(scene: Scene, *, rtol: float | str = "default",
     else:
         extrema = _extrema_on_rows(traj, t_hi, t_clear, dt or 1e-3)
         values, times = zip(*(extrema[name] for name in EXTREMA), strict=True)
-    return _figures(scene, traj.events.get("lift_off", math.nan),
-                    math.nan if t_rel is None else t_rel, traj.release_state, em_release,
-                    math.nan if t_rel is None else _lost_by(traj, t_rel), values, times)
+    figures, times = _figure_values(
+        scene, traj.events.get("lift_off", math.nan), math.nan if t_rel is None else t_rel,
+        traj.release_state, em_release, math.nan if t_rel is None else _lost_by(traj, t_rel),
+        values, times)
+    return ShotFigures(**figures, times=times)
 
 
 def designs_figures(scenes: Sequence[Scene], *, rtol: float | str = "default",
@@ -203,20 +208,30 @@ def designs_figures(scenes: Sequence[Scene], *, rtol: float | str = "default",
     all in one call of the C engine (:func:`~trebuchet.model.c_peaks.design_peaks`); None
     for a scene the C refuses (:func:`shot_figures` words the refusal). Raises
     EngineUnavailable without the C."""
+    return [None if found is None else ShotFigures(**found[0], times=found[1])
+            for found in designs_values(scenes, rtol=rtol, after_release=after_release)]
+
+
+def designs_values(scenes: Sequence[Scene], *, rtol: float | str = "default",
+                   after_release: float | None = None
+                   ) -> list[tuple[dict[str, float], dict[str, float]] | None]:
+    """:func:`designs_figures` as ``(figures, times)`` dicts (:meth:`ShotFigures.as_dict`
+    and :attr:`ShotFigures.times`): a sweep's rows, without an object a design."""
     rtol = resolve_rtol(rtol)
     windows = [_windows(sc, after_release) for sc in scenes]
     out, status = design_peaks(scenes, rtol, [w[0] for w in windows],
                                [w[1] for w in windows], CLEARANCE_WINDOW)
-    figures: list[ShotFigures | None] = []
+    found: list[tuple[dict[str, float], dict[str, float]] | None] = []
     for sc, row, refused in zip(scenes, out.tolist(), status.tolist(), strict=True):
         if refused:
-            figures.append(None)
+            found.append(None)
             continue
         t_rel = row[_T_RELEASE]
         rs = None if math.isnan(t_rel) else dict(zip(_RELEASE_KEYS, row[_RELEASE], strict=True))
-        figures.append(_figures(sc, row[_T_LIFT], t_rel, rs, row[_E_M_RELEASE],
-                                row[_LOSS_RELEASE], row[:_N_EXTREMA], row[_N_EXTREMA:_TIMES]))
-    return figures
+        found.append(_figure_values(sc, row[_T_LIFT], t_rel, rs, row[_E_M_RELEASE],
+                                    row[_LOSS_RELEASE], row[:_N_EXTREMA],
+                                    row[_N_EXTREMA:_TIMES]))
+    return found
 
 
 _N_EXTREMA, _TIMES = len(EXTREMA), 2 * len(EXTREMA)
@@ -227,30 +242,34 @@ _RELEASE_KEYS = ("t", "x", "y", "vx", "vy")
 #: Each peak figure, the index of its extremum in EXTREMA, and its sign.
 _PEAKS = tuple((name, EXTREMA.index(key), sign) for name, (key, sign) in _FROM_EXTREMA.items())
 _DRIFT = EXTREMA.index("energy_sum_abs")
-_NO_FLIGHT = (math.nan,) * 5
+_NO_FLIGHT = dict.fromkeys(("release_speed", "release_angle", "release_angle_deg",
+                            "release_height", "range"), math.nan)
 
 
-def _figures(scene: Scene, t_lift: float, t_rel: float, release_state: dict | None,
-             em_release: float, lost: float, values: Sequence[float],
-             times: Sequence[float]) -> ShotFigures:
-    """:class:`ShotFigures` from the events (s, NaN: none), the projectile's state at release
-    (None: a dry fire), its energy over rest then and the friction's heat by then (J), and
-    the :data:`~trebuchet.model.summary_kernel.EXTREMA` with their times."""
+def _figure_values(scene: Scene, t_lift: float, t_rel: float, release_state: dict | None,
+                   em_release: float, lost: float, values: Sequence[float],
+                   times: Sequence[float]) -> tuple[dict[str, float], dict[str, float]]:
+    """The :data:`FIGURES` (in order) and the time of each extremum, from the events (s, NaN:
+    none), the projectile's state at release (None: a dry fire), its energy over rest then
+    and the friction's heat by then (J), and the
+    :data:`~trebuchet.model.summary_kernel.EXTREMA` with their times (s)."""
     nan, delta_u = math.nan, scene.delta_U
-    flight, share = _NO_FLIGHT, nan
-    if release_state is not None:
+    out = {"lift_off": t_lift, "release_time": t_rel}
+    if release_state is None:
+        out.update(_NO_FLIGHT)
+    else:
         fl = flight_summary(release_state, scene.g, scene.flight, scene.engine.m)
-        flight = (fl["release_speed"], fl["release_angle"], math.degrees(fl["release_angle"]),
-                  fl["release_height"], fl["range"])
-        share = em_release / delta_u
-    peaks = {}
+        out.update(release_speed=fl["release_speed"], release_angle=fl["release_angle"],
+                   release_angle_deg=math.degrees(fl["release_angle"]),
+                   release_height=fl["release_height"], range=fl["range"])
     for name, i, sign in _PEAKS:
         v = sign * values[i]
-        peaks[name] = v if math.isfinite(v) else nan
-    return ShotFigures(t_lift, t_rel, *flight, **peaks, energy_share=share,
-                       energy_drift_rel=values[_DRIFT] / delta_u, E_loss_release=lost,
-                       loss_share=100.0 * lost / delta_u,
-                       times={name: float(times[i]) for name, i, _ in _PEAKS})
+        out[name] = v if math.isfinite(v) else nan
+    out["energy_share"] = nan if release_state is None else em_release / delta_u
+    out["energy_drift_rel"] = values[_DRIFT] / delta_u
+    out["cw_clearance"] = out.pop("cw_clearance")  # the order of FIGURES
+    out["E_loss_release"], out["loss_share"] = lost, 100.0 * lost / delta_u
+    return out, {name: float(times[i]) for name, i, _ in _PEAKS}
 
 
 def _lost_by(traj: Trajectory, t: float) -> float:

@@ -54,9 +54,9 @@ from trebuchet.model.shot_summary import (
     STATUS_BACKWARD,
     STATUS_GROUND,
     STATUS_OK,
-    ShotFigures,
-    designs_figures,
+    designs_values,
     shot_figures,
+    throw_status,
 )
 from trebuchet.model.simulate import resolve_rtol
 from trebuchet.model.sweep_scene import ANGLE_PAIRS, RELEASE_KEYS, design_scene
@@ -301,9 +301,9 @@ def failed_row(item: tuple[int, Mapping[str, Any]], status: str, error: str,
             **dict.fromkeys(outputs, math.nan)}
 
 
-def _throw_error(status: str, figures: Any) -> str:
+def _throw_error(status: str, figures: dict[str, float]) -> str:
     """The reason of a ``backward`` or ``ground`` row, in words."""
-    deg, range_ = figures.release_angle_deg, figures.range
+    deg, range_ = figures["release_angle_deg"], figures["range"]
     where = (f"lands {-range_:.3g} m behind the pivot" if range_ < 0 else
              f"lands {range_:.3g} m ahead of it")
     if status == STATUS_BACKWARD:
@@ -333,14 +333,14 @@ def evaluate_design(base: Scene, item: tuple[int, Mapping[str, float]], *,
                                                        dt=options.dt))
     except Exception as exc:  # noqa: BLE001 - a sweep keeps every design, failures included
         return _failure(item, exc, outputs)
-    return _design_row(item, scene, figures, options, outputs)
+    return _design_row(item, scene, figures.as_dict(), options, outputs)
 
 
 def evaluate_designs(base: Scene, items: Sequence[tuple[int, Mapping[str, float]]], *,
                      options: SimulationOptions = SimulationOptions(),
                      outputs: Sequence[str] = tuple(SUMMARY_COLUMNS)) -> list[dict[str, Any]]:
     """The rows of ``items`` as :func:`evaluate_design` makes them, the figures of them all
-    from one call of the C engine (:func:`~trebuchet.model.shot_summary.designs_figures`)
+    from one call of the C engine (:func:`~trebuchet.model.shot_summary.designs_values`)
     where it runs and the options allow (no sizing rules, no output step); a design the C
     refuses runs alone, which words the refusal."""
     if options.sizing or options.dt is not None or not c_engine.available(quiet=True):
@@ -353,13 +353,14 @@ def evaluate_designs(base: Scene, items: Sequence[tuple[int, Mapping[str, float]
         except Exception as exc:  # noqa: BLE001 - as evaluate_design
             rows[i] = _failure(items[i], exc, outputs)
     try:
-        figures = designs_figures([scene for _, scene in built], rtol=options.rtol,
-                                  after_release=options.after_release)
+        found = designs_values([scene for _, scene in built], rtol=options.rtol,
+                               after_release=options.after_release)
     except Exception:  # noqa: BLE001 - each design alone then says what went wrong
-        figures = [None] * len(built)
-    for (i, scene), fig in zip(built, figures, strict=True):
+        found = [None] * len(built)
+    for (i, scene), values in zip(built, found, strict=True):
         rows[i] = (evaluate_design(base, items[i], options=options, outputs=outputs)
-                   if fig is None else _design_row(items[i], scene, fig, options, outputs))
+                   if values is None else _design_row(items[i], scene, values[0], options,
+                                                      outputs))
     return rows  # type: ignore[return-value]
 
 
@@ -374,13 +375,12 @@ def _failure(item: tuple[int, Mapping[str, Any]], exc: Exception,
     return failed_row(item, STATUS_FAILED, f"{type(exc).__name__}: {exc}", outputs)
 
 
-def _design_row(item: tuple[int, Mapping[str, Any]], scene: Scene, figures: ShotFigures,
+def _design_row(item: tuple[int, Mapping[str, Any]], scene: Scene, figures: dict[str, float],
                 options: SimulationOptions, outputs: Sequence[str]) -> dict[str, Any]:
-    """The row of a design with its figures: ``ok``, ``backward``, ``ground``, or ``failed``
-    where an output is not finite."""
+    """The row of a design with its figures (:meth:`ShotFigures.as_dict`): ``ok``,
+    ``backward``, ``ground``, or ``failed`` where an output is not finite."""
     index, params = item
-    all_values = figures.as_dict()
-    values = all_values if outputs == _ALL else {k: all_values[k] for k in outputs}
+    values = figures if outputs == _ALL else {k: figures[k] for k in outputs}
     row: dict[str, Any] = {"design": index, **params}
     if options.sizing:
         row.update(_sized_values(scene, options))
@@ -388,7 +388,7 @@ def _design_row(item: tuple[int, Mapping[str, Any]], scene: Scene, figures: Shot
     if not all(map(math.isfinite, values.values())):
         bad = [k for k, v in values.items() if not math.isfinite(v)]
         status, error = STATUS_FAILED, "non-finite output: " + ", ".join(bad)
-    elif (thrown := figures.status) != STATUS_OK:
+    elif (thrown := throw_status(figures["release_angle"], figures["range"])) != STATUS_OK:
         status, error = thrown, _throw_error(thrown, figures)
     row["status"], row["error"] = status, error
     row.update(values)

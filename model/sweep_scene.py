@@ -46,40 +46,43 @@ def design_scene(base: Scene, params: Mapping[str, float | str],
     that follow them), validated as ``Scene.from_dict`` validates a scene file; raises
     TrebuchetInputError."""
     source = source or base.source
-    if _reads_back(base):
-        e, s = base.engine, base.start
+    reads_back, follows_inertia, follows_height, phi_of = _base_facts(base)
+    if reads_back:
         numbers: dict[str, Any] = dict(params)
-        if "engine.I" not in params and _follows_inertia(e):
+        if follows_inertia and "engine.I" not in params:
             numbers["engine.I"] = None
-        if "engine.H" not in params and _follows_height(base):
+        if follows_height and "engine.H" not in params:
             numbers["engine.H"] = None
         trough = (base.projectile == "trough" and "start.projectile" not in params
                   and "start.phi" not in params and "start.phi_deg" not in params)
         try:
-            return with_numbers(base, numbers, source,
-                                phi_of=_trough_phi(s.phi) if trough else None)
+            return with_numbers(base, numbers, source, phi_of=phi_of if trough else None)
         except (KeyError, TrebuchetInputError):
             pass  # not a design of numbers only, or refused: the file's reader words it
     return _from_dict(base, params, source)
 
 
-def _reads_back(base: Scene) -> bool:
-    """True where ``Scene.from_dict`` reads the scene's own dict back: its numbers pass the
-    scene file's rules, so that :func:`with_numbers` may take them as they are (the last base
-    asked about is remembered: a sweep asks about one)."""
-    global _reads_back_last
-    last = _reads_back_last  # one tuple, read and replaced whole (threads)
+def _base_facts(base: Scene) -> tuple[bool, bool, bool, Any]:
+    """Whether ``Scene.from_dict`` reads the scene's own dict back (its numbers pass the scene
+    file's rules, so that :func:`with_numbers` may take them as they are), whether its ``I``
+    and its ``H`` follow the quantities they are computed from, and the trough's sling angle
+    on its branch (:func:`_trough_phi`). The last base asked about is remembered: a sweep
+    asks about one."""
+    global _last_base
+    last = _last_base  # one tuple, read and replaced whole (threads)
     if last[0] is not base:
         try:
             Scene.from_dict(base.to_dict(), source=base.source)
-            last = (base, True)
+            reads_back = True
         except TrebuchetInputError:
-            last = (base, False)
-        _reads_back_last = last
+            reads_back = False
+        last = (base, (reads_back, _follows_inertia(base.engine), _follows_height(base),
+                       _trough_phi(base.start.phi)))
+        _last_base = last
     return last[1]
 
 
-_reads_back_last: tuple[Scene | None, bool] = (None, False)
+_last_base: tuple[Scene | None, tuple[bool, bool, bool, Any]] = (None, (False,) * 4)
 
 
 def _follows_inertia(e: Engine) -> bool:
@@ -127,9 +130,10 @@ def _from_dict(base: Scene, params: Mapping[str, float | str], source: str) -> S
         sec.pop(next((p for p, d in ANGLE_PAIRS.items() if d == name), ""), None)
         sec[name] = value
     eng = data["engine"]
-    if "engine.I" not in params and _follows_inertia(base.engine):
+    _, follows_inertia, follows_height, _ = _base_facts(base)
+    if follows_inertia and "engine.I" not in params:
         eng.pop("I")
-    if "engine.H" not in params and _follows_height(base):
+    if follows_height and "engine.H" not in params:
         eng.pop("H")
     in_trough = params.get("start.projectile", getattr(base, "projectile", "trough")) == "trough"
     if in_trough and not any(k in params for k in ("start.phi", "start.phi_deg")):

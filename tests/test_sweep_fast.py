@@ -101,7 +101,7 @@ def test_the_sweep_rows_are_those_of_the_path_before(monkeypatch):
     rows = evaluate_designs(FRICTION, items)
     with monkeypatch.context() as m:
         m.setattr(shot_summary, "designs_figures", lambda scenes, **kw: [None] * len(scenes))
-        m.setattr(sweep_design, "designs_figures", lambda scenes, **kw: [None] * len(scenes))
+        m.setattr(sweep_design, "designs_values", lambda scenes, **kw: [None] * len(scenes))
         m.setattr(sweep_scene, "with_numbers", _refuse)
         before = [evaluate_design(FRICTION, item) for item in items]
     assert [r["status"] for r in rows] == [r["status"] for r in before]
