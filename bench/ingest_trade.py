@@ -10,7 +10,9 @@ frames, two seeds), ``reconstruct`` runs with:
   :mod:`~trebuchet.ingest.smoothing.model_choice`);
 - the process noise ``q`` fixed at 10× and 0.1× the maximum-likelihood one of the default
   run (per angle; the measurement noise fixed at its estimate), i.e. the tuning skipped and
-  off by a decade either way.
+  off by a decade either way;
+- ``fit``: ``reconstruct``'s default since issue 23, the loads of the engine fitted to the
+  log (the others are the smoother's, ``method="smooth"``).
 
 Columns: RMS error of |F_R| and torque (% of the true peak), ±2 sd coverage (% of the shot's
 frames), and the wall time of ``reconstruct`` (s, best of the two seeds' runs, tuning
@@ -37,13 +39,16 @@ from trebuchet.ingest.synthetic.simulated_log import simulated_log
 ROOT_RESULTS = Path(__file__).resolve().parent / "results"
 CELLS = ((240, 0.3), (120, 1.0))
 SEEDS = (0, 1)
-SETTINGS = ("fast", "default", "precise", "cj", "cj ML q", "select ML q", "q x10", "q x0.1")
+SETTINGS = ("fast", "default", "precise", "cj", "cj ML q", "select ML q", "q x10", "q x0.1",
+            "fit")
 
 
 def _one(log: pd.DataFrame, truth: pd.DataFrame, setting: str, ml: dict) -> dict:
     scene = engines()["paper"]
-    kw: dict = {}
-    if setting in ("fast", "default", "precise"):
+    kw: dict = {"method": "smooth"}
+    if setting == "fit":
+        kw["method"] = "fit"
+    elif setting in ("fast", "default", "precise"):
         kw["options"] = ReconstructOptions(preset=setting)
     elif setting == "cj":
         kw["options"] = ReconstructOptions(model="cj")
@@ -72,7 +77,8 @@ def run(out_dir: str | Path | None = None) -> pd.DataFrame:
         for fps, noise in CELLS:
             for seed in SEEDS:
                 log, truth = simulated_log(scene, fps, noise, seed=seed, drop_fraction=0.02)
-                ml = reconstruct(log, scene).attrs["reconstruction"].noise  # warm-up and the ML q
+                ml = reconstruct(log, scene, method="smooth").attrs[  # warm-up and the ML q
+                    "reconstruction"].noise
                 for setting in SETTINGS:
                     rows.append({"fps": fps, "noise_deg": noise, "setting": setting,
                                  "seed": seed, **_one(log, truth, setting, ml)})

@@ -13,15 +13,16 @@ import sys
 import warnings
 from typing import TYPE_CHECKING
 
-from trebuchet.errors import TrebuchetInputError, cli_command, command_line
-from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, TROUGH
+from trebuchet.core.errors import TrebuchetInputError, cli_command, command_line
+from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, METHODS, TROUGH
 from trebuchet.model.units import UNITS_HELP
 
 if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["register", "forces_summary", "parse_pairs", "add_log_arguments", "log_options",
-           "add_reconstruct_arguments", "reconstruct_options", "EVENT_OPTIONS"]
+           "add_reconstruct_arguments", "reconstruct_options", "add_event_arguments",
+           "event_options", "add_image_calibration_argument", "EVENT_OPTIONS"]
 
 ANGLE_NAMES = ("theta", "psi", "phi")
 POINT_ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
@@ -45,30 +46,54 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def add_reconstruct_arguments(p: argparse.ArgumentParser) -> None:
     """Every argument of ``forces`` but its output: the log arguments
-    (:func:`add_log_arguments`), ``--form``, ``--trough``, ``--image-calibration`` and
-    the event times ``--trigger``, ``--lift-off``, ``--release``. ``compare`` adds exactly
-    these too (docs/interface.md: it takes every option ``forces`` takes, with the same
-    names and meanings); read them back with :func:`reconstruct_options`."""
+    (:func:`add_log_arguments`), ``--form``, ``--trough``, ``--method``,
+    ``--image-calibration`` and the event times ``--trigger``, ``--lift-off``, ``--release``.
+    ``compare`` adds exactly these too (docs/interface.md: it takes every option ``forces``
+    takes, with the same names and meanings); read them back with
+    :func:`reconstruct_options`."""
     add_log_arguments(p)
     p.add_argument("--form", choices=FORMS, default=None,
                    help="force formulas: projected on the arms (default) or the paper's direct")
     p.add_argument("--trough", choices=TROUGH, default=None,
                    help="phase-I sling angle from the trough constraint (default) or measured")
+    p.add_argument("--method", choices=METHODS, default=None,
+                   help="fit: loads of the engine fitted to the log where the fit passes its "
+                        "residual check, else the smoother's (the default for a log of "
+                        "angles; a log of tracked points keeps the smoother's unless fit is "
+                        "given); smooth: loads of the smoothed angles")
+    add_image_calibration_argument(p)
+    add_event_arguments(p)
+
+
+def add_image_calibration_argument(p: argparse.ArgumentParser) -> None:
+    """``--image-calibration engine|none`` (point logs)."""
     p.add_argument("--image-calibration", choices=IMAGE_CALIBRATIONS, default=None,
                    help="point logs: the engine calibrates the camera's image itself "
                         "(engine, default) or the points are taken as seen (none)")
+
+
+def add_event_arguments(p: argparse.ArgumentParser) -> None:
+    """The event times ``--trigger``, ``--lift-off``, ``--release`` (read back with
+    :func:`event_options`)."""
     for event in EVENT_OPTIONS:
         p.add_argument(f"--{event}", metavar="SECONDS",
                        help=f"{event} time in the log's time (s), or 'none'; default: found "
                             "in the data")
 
 
+def event_options(args: argparse.Namespace) -> dict[str, float | None] | None:
+    """The events of :func:`add_event_arguments` (log time, s; None = no such event), or
+    None where none is given; each checked with an error naming its option."""
+    return _event_args(args)
+
+
 def reconstruct_options(args: argparse.Namespace) -> dict[str, object]:
     """The keywords of :func:`~trebuchet.ingest.reconstruct.reconstruct` from the arguments
     of :func:`add_reconstruct_arguments`: ``fps``, ``columns``, ``points``, ``events``,
-    ``form``, ``trough``, ``image_calibration``; each checked with an error naming its option."""
+    ``form``, ``trough``, ``method``, ``image_calibration``; each checked with an error naming
+    its option."""
     return log_options(args) | {"events": _event_args(args), "form": args.form,
-                                "trough": args.trough,
+                                "trough": args.trough, "method": args.method,
                                 "image_calibration": args.image_calibration}
 
 
@@ -216,10 +241,13 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
     source, fmt, repairs = (("log", "table", ()) if info is None
                             else (info.source, info.format, info.repairs))
     lines = [f"log: {source} ({fmt}), {len(result)} rows, "
-             f"{a.fps:.4g} fps; formulas: {a.form}"]
+             f"{a.fps:.4g} fps; formulas: {a.form}",
+             "loads: " + ("of the engine fitted to the log (method fit)" if a.method == "fit"
+                          else "of the smoothed angles (method smooth)")]
     if a.noise:
         parts = [f"{k} {math.degrees(v['r_sd']):.3g}°" for k, v in a.noise.items()]
-        lines.append("angle noise (sd, maximum likelihood): " + ", ".join(parts))
+        how = "fourth differences" if a.method == "fit" else "maximum likelihood"
+        lines.append(f"angle noise (sd, {how}): " + ", ".join(parts))
     ev, sd, src = a.events, a.event_sd, a.event_sources
     lines.append("events (log time):")
     for key, label in (("trigger", "trigger"), ("lift_off", "lift-off"), ("release", "release")):
@@ -251,10 +279,10 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
 
 @cli_command
 def _forces(args: argparse.Namespace) -> int:
-    from trebuchet.csv_table import write_table
+    from trebuchet.core.csv_table import write_table
+    from trebuchet.core.output import check_target
     from trebuchet.ingest.reconstruct import reconstruct
     from trebuchet.model.units import column_units
-    from trebuchet.output import check_target
 
     inputs = [args.log, args.scene, args.calibration]
     check_target(args.output, inputs=inputs)

@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.advisory import Advisory
 
 
@@ -54,6 +54,16 @@ class Reconstruction:
         Sentences: angles outside the scene's geometry, a slack sling.
     notes:
         Sentences about the log, the smoothing and the events.
+    method:
+        ``"smooth"``: the loads of the smoothed angles; ``"fit"``: of the fitted engine
+        (:mod:`~trebuchet.ingest.identification.fitted_loads`).
+    identification:
+        The engine identified from the log
+        (:class:`~trebuchet.ingest.identification.result.Identification`) where a fit ran,
+        else None (with ``method="smooth"`` it failed its check, or was not asked for).
+    event_warnings:
+        Sentences about events whose sources disagree (also in ``notes``), for
+        :func:`~trebuchet.ingest.reconstruct.reconstruct` to warn.
     """
 
     events: Mapping[str, float | None]
@@ -68,6 +78,9 @@ class Reconstruction:
     advisories: tuple[Advisory, ...] = ()
     validity: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    method: str = "smooth"
+    identification: Any = None
+    event_warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -75,7 +88,7 @@ class Reconstruction:
             set_(self, name, MappingProxyType(dict(getattr(self, name))))
         set_(self, "noise", MappingProxyType(
             {a: MappingProxyType(dict(v)) for a, v in self.noise.items()}))
-        for name in ("advisories", "validity", "notes"):
+        for name in ("advisories", "validity", "notes", "event_warnings"):
             set_(self, name, tuple(getattr(self, name)))
 
     def __deepcopy__(self, memo: dict) -> Reconstruction:
@@ -89,7 +102,8 @@ class Reconstruction:
         return (_rebuild, (dict(self.events), dict(self.event_sd), dict(self.event_sources),
                            {a: dict(v) for a, v in self.noise.items()}, self.form,
                            self.trough, self.model, self.preset, self.fps, self.advisories,
-                           self.validity, self.notes))
+                           self.validity, self.notes, self.method, self.identification,
+                           self.event_warnings))
 
 
 def _rebuild(*fields) -> Reconstruction:

@@ -9,7 +9,7 @@ take them from here.
 
 from __future__ import annotations
 
-__all__ = ["FORMS", "TROUGH", "IMAGE_CALIBRATIONS", "RELEASE_MODES", "ALIGN_MODES",
+__all__ = ["FORMS", "TROUGH", "IMAGE_CALIBRATIONS", "METHODS", "RELEASE_MODES", "ALIGN_MODES",
            "CHANCE_RUNS"]
 
 #: Force formulas: projected on the arms (default) or the paper's direct form.
@@ -18,6 +18,9 @@ FORMS = ("projected", "direct")
 TROUGH = ("constraint", "measured")
 #: How a point log's angles are found: "engine" (self-calibration) or "none" (read_log's).
 IMAGE_CALIBRATIONS = ("none", "engine")
+#: Where the loads come from: the engine fitted to the log (default, where a scene is given and
+#: the fit passes its residual check; else the smoother's) or the smoothed angles.
+METHODS = ("fit", "smooth")
 #: The model's release in ``compare`` (``CompareOptions.release``).
 RELEASE_MODES = ("auto", "log", "scene")
 #: The model's start in ``compare`` (``CompareOptions.align``).

@@ -20,7 +20,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.user_files import read_user_file
 from trebuchet.model.engine import (
     DEFAULT_SMOOTHING_RATE,
     Engine,
@@ -40,7 +41,6 @@ from trebuchet.model.scene_rules import (
     check_start_pose,
     check_theta,
 )
-from trebuchet.user_files import read_user_file
 
 __all__ = ["Engine", "Friction", "Start", "Release", "Flight", "Scene", "SCENE_KEYS", "as_scene",
            "default_moment_of_inertia", "DEFAULT_SMOOTHING_RATE", "with_numbers"]

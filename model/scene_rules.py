@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.engine import Engine, Release
 
 __all__ = ["RULES", "SECTIONS", "SCENE_KEYS", "Reader", "MAX_MAGNITUDE", "MIN_LENGTH",

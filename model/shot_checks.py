@@ -9,11 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.output_size import MAX_ROWS
 from trebuchet.model.scene import Scene
 
-__all__ = ["checked_times", "slack_intervals", "refuse_non_finite"]
+__all__ = ["checked_times", "slack_intervals", "refuse_non_finite", "stiffness_advice"]
 
 
 def checked_times(t_eval: Sequence[float] | np.ndarray) -> np.ndarray:
@@ -74,3 +74,16 @@ def refuse_non_finite(cols: Mapping[str, np.ndarray], scene: Scene) -> None:
             raise TrebuchetInputError(
                 f"{scene.source}: the model breaks down at t = {t_bad:.4g} s ({name} is not "
                 "finite); the scene is outside what the equations of motion can describe")
+
+
+def stiffness_advice(scene: Scene, nfev: int) -> list[str]:
+    """What the user can do about a costly or stiff scene (``nfev``: the right-hand sides the
+    shot took)."""
+    advice = []
+    e = scene.engine
+    if nfev > 5000 and not e.fixed_counterweight and e.L3 < 0.05 * e.L1:
+        advice.append(
+            f"L3 = {e.L3:g} m makes the counterweight's swing stiff ({nfev} evaluations); "
+            "if it barely swings, model it fixed to the beam ([engine] counterweight = "
+            "\"fixed\"), or use method=\"Radau\"")
+    return advice

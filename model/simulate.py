@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.model import c_engine
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import kinematics as kin
@@ -33,7 +33,12 @@ from trebuchet.model.loads import load_columns
 from trebuchet.model.output_size import check_output_size
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.settings import ACCURACY, DEFAULT_AFTER_RELEASE, DEFAULT_RTOL
-from trebuchet.model.shot_checks import checked_times, refuse_non_finite, slack_intervals
+from trebuchet.model.shot_checks import (
+    checked_times,
+    refuse_non_finite,
+    slack_intervals,
+    stiffness_advice,
+)
 
 __all__ = ["simulate", "Trajectory", "integrate", "resolve_rtol", "DEFAULT_RTOL", "ACCURACY"]
 
@@ -92,6 +97,13 @@ class Trajectory:
         """True when the engine has friction: every phase's state then ends with the energies
         lost at pivot and hinge (in units of :func:`dynamics.energy_scale`)."""
         return has_friction(self.scene.engine)
+
+    def lost_energies(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``E_loss_pivot``, ``E_loss_hinge`` (J, since the trigger) at times ``t`` (s), from the
+        integrated states (zero without friction)."""
+        cols = self.angle_columns(np.asarray(t, dtype=float), lost=True)
+        zero = np.zeros(cols["t"].size)
+        return cols.get("E_loss_pivot", zero), cols.get("E_loss_hinge", zero)
 
     def angles(self, t: np.ndarray) -> pd.DataFrame:
         """Angles, rates and accelerations at times ``t`` (s). At an event time the row takes
@@ -472,22 +484,10 @@ def simulate(scene: Scene | str | Path,
     run.attrs["diagnostics"] = {
         "method": method, "engine": traj.engine, "rtol": rtol, "nfev": traj.nfev,
         "energy_drift": drift, "energy_drift_rel": drift / delta_u, "delta_U": delta_u,
-        "slack": slack, "advice": _advice(scene, traj),
+        "slack": slack, "advice": stiffness_advice(scene, traj.nfev),
     }
     for a, b in run.attrs["diagnostics"]["slack"]:
         warn_at_caller(ModelValidityWarning(
             f"{scene.source}: the sling goes slack (tension below zero) from t = {a:.4g} s to "
             f"{b:.4g} s: a rigid sling cannot push, so the loads there are fiction"))
     return run
-
-
-def _advice(scene: Scene, traj: Trajectory) -> list[str]:
-    """What the user can do about a costly or stiff scene."""
-    advice = []
-    e = scene.engine
-    if traj.nfev > 5000 and not e.fixed_counterweight and e.L3 < 0.05 * e.L1:
-        advice.append(
-            f"L3 = {e.L3:g} m makes the counterweight's swing stiff ({traj.nfev} evaluations); "
-            "if it barely swings, model it fixed to the beam ([engine] counterweight = "
-            "\"fixed\"), or use method=\"Radau\"")
-    return advice

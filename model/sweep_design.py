@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import c_engine
 from trebuchet.model import kinematics as kin
 from trebuchet.model.design_sizing import Sizing, sized

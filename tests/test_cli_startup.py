@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trebuchet import interrupts
 from trebuchet.cli import main
+from trebuchet.core import interrupts
 
 from .conftest import HORSDAL, ROOT
 
@@ -86,6 +86,8 @@ def test_the_tableau_is_scipys():
     ["design", "s.toml", "-o", "b.toml", "--vary", "engine.L4=3:8"],
     ["sweep", "s.toml", "--grid", "engine.M=1", "-o", "x.csv", "--memory-budget", "lots"],
     ["forces", "x.csv", "--scene", "s.toml", "-o", "y.csv", "--form", "bent"],
+    ["identify", "--help"], ["identify", "x.csv"],
+    ["forces", "x.csv", "--scene", "s.toml", "-o", "y.csv", "--method", "guess"],
 ], ids=lambda argv: " ".join(argv) or "(none)")
 def test_help_and_usage_errors_import_nothing_heavy(argv):
     code = (f"sys.argv = ['trebuchet', *{argv!r}]\n"

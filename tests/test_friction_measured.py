@@ -22,20 +22,27 @@ def small() -> Scene:
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_losses_of_a_filmed_shot_hold_the_truth(small, seed):
-    """The small fast engine filmed at 240 fps with 0.3° of noise: the heat made by the
-    release within 3 % and its ±3 sd, the loss powers inside their ±2 sd band on most rows."""
+@pytest.mark.parametrize("method", ["smooth", "fit"])
+def test_losses_of_a_filmed_shot_hold_the_truth(small, seed, method):
+    """The small fast engine filmed at 240 fps with 0.3° of noise. With the smoother's loads
+    and the scene's bearings (the formula needs no model of the motion): the heat made by the
+    release within 3 % and its ±3 sd, the loss powers inside their ±2 sd band on most rows.
+    With the fitted engine (issue 23's default, the friction coefficients free): within ±3 sd
+    of its own, wider, sd."""
     log, truth = simulated_log(small, 240.0, 0.3, seed=seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        measured = tb.reconstruct(log, small)
+        measured = tb.reconstruct(log, small, method=method)
+    assert measured.attrs["reconstruction"].method == method
     release = measured.attrs["events"]["release"]
     i = int(np.searchsorted(measured.t.to_numpy(), release)) - 1
     for joint in ("pivot", "hinge"):
         est, sd = measured[f"E_loss_{joint}"].iloc[i], measured[f"E_loss_{joint}_sd"].iloc[i]
         want = truth[f"E_loss_{joint}"].iloc[i]
-        assert est == pytest.approx(want, rel=0.03)
         assert abs(est - want) <= 3.0 * sd
+        if method == "fit":
+            continue
+        assert est == pytest.approx(want, rel=0.03)
         P, P_sd = measured[f"P_loss_{joint}"], measured[f"P_loss_{joint}_sd"]
         moving = (measured.phase > 0) & (measured.t <= release)
         inside = (np.abs(P - truth[f"P_loss_{joint}"]) <= 2.0 * P_sd)[moving]
@@ -49,7 +56,7 @@ def test_forces_prints_the_losses(small, tmp_path, capsys):
     path = tmp_path / "shot.csv"
     log.to_csv(path, index=False)
     assert main(["forces", str(path), "--scene", str(SMALL), "-o", str(tmp_path / "l.csv"),
-                 "--time-unit", "s", "--angle-unit", "rad"]) == 0
+                 "--time-unit", "s", "--angle-unit", "rad", "--method", "smooth"]) == 0
     out = capsys.readouterr().out
     line = next(x for x in out.splitlines() if x.startswith("lost to friction"))
     assert "by the release: pivot" in line and "hinge" in line and " J" in line

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 from scipy.ndimage import gaussian_filter1d
 
-import trebuchet.ingest.reconstruct as reconstruct_module
+import trebuchet.ingest.loads_table as loads_table_module
 from tests.test_smooth_kalman import _case
 from trebuchet.ingest.kalman import batch
 from trebuchet.ingest.kalman.reference import numpy_passes
@@ -130,7 +130,7 @@ def test_compiled_propagation_equals_its_numpy_form_and_chunks_change_nothing():
 def _quiet_reconstruct(path: Path, scene: str, **kwargs) -> pd.DataFrame:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return reconstruct(path, SAMPLES / scene, **kwargs)
+        return reconstruct(path, SAMPLES / scene, **{"method": "smooth", **kwargs})
 
 
 @pytest.mark.parametrize("sample, scene, kwargs", [
@@ -172,7 +172,7 @@ def test_chunked_load_propagation_changes_no_row(monkeypatch):
     """Evaluated a few rows at a time, the rows in flight with the last row in the sling:
     the loads and their sd of the whole table to the last bit."""
     whole = _quiet_reconstruct(SAMPLES / "horsdal_240fps.csv", "horsdal_large.toml")
-    monkeypatch.setattr(reconstruct_module, "chunk_rows", lambda n: 37)
+    monkeypatch.setattr(loads_table_module, "chunk_rows", lambda n: 37)
     chunked = _quiet_reconstruct(SAMPLES / "horsdal_240fps.csv", "horsdal_large.toml")
     assert (whole["phase"] == 3).sum() > 37  # flight rows in chunks without the release row
     for c in whole.columns:
@@ -191,10 +191,10 @@ def test_reconstruct_holds_less_than_4_kib_a_row(horsdal):
     log, _ = simulated_log(horsdal, 1000, 0.5, rest=0.3, after_release=4.0 - 0.3 - 0.997)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        reconstruct(log.iloc[:800], horsdal)
+        reconstruct(log.iloc[:800], horsdal, method="smooth")
         tracemalloc.start()
         try:
-            reconstruct(log, horsdal)
+            reconstruct(log, horsdal, method="smooth")  # the smoother's passes
             peak = tracemalloc.get_traced_memory()[1]
         finally:
             tracemalloc.stop()

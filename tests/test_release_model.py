@@ -10,16 +10,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.ingest.events.release_model import (
     ModelRelease,
     ReleaseFit,
     phase_change_profile,
-    release_choice,
     release_from_model,
     release_jump_chi2,
     scene_doubt,
 )
+from trebuchet.ingest.events.release_sources import SceneTiming, release_without_track_end
 from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
 from trebuchet.ingest.smoothing.smooth import smooth
 from trebuchet.ingest.synthetic.simulated_log import continued_sling_log, simulated_log
@@ -75,8 +75,10 @@ def test_the_model_free_release_misses_where_the_equations_find_it(backyard):
     release (about 90 frames early on this log); the engine's equations replace it."""
     fps = 1000
     log, truth = continued_sling_log(backyard, fps, 0.1, "pendulum", seed=1)
-    free = _quiet(reconstruct, log, backyard, options=ReconstructOptions(release_model=None))
-    res = _quiet(reconstruct, log, backyard)
+    # the release from the equations is the smoother's (the fitted engine fits its own)
+    free = _quiet(reconstruct, log, backyard, method="smooth",
+                  options=ReconstructOptions(release_model=None))
+    res = _quiet(reconstruct, log, backyard, method="smooth")
     free_err = _release_error_frames(free, truth, fps)
     err = _release_error_frames(res, truth, fps)
     done, before = res.attrs["reconstruction"], free.attrs["reconstruction"]
@@ -96,8 +98,9 @@ def test_a_sling_track_that_ends_at_the_release_is_unchanged(horsdal):
     with warnings.catch_warnings():
         warnings.simplefilter("error", ModelValidityWarning)
         warnings.filterwarnings("ignore", message=".*resol", category=ModelValidityWarning)
-        res = _quiet(reconstruct, log, horsdal)
-    off = _quiet(reconstruct, log, horsdal, options=ReconstructOptions(release_model=None))
+        res = _quiet(reconstruct, log, horsdal, method="smooth")
+    off = _quiet(reconstruct, log, horsdal, method="smooth",
+                 options=ReconstructOptions(release_model=None))
     assert res.attrs["reconstruction"].event_sources["release"] == "end of the sling track"
     assert res.attrs["events"] == off.attrs["events"]
     assert res.attrs["reconstruction"].event_sd == off.attrs["reconstruction"].event_sd
@@ -113,13 +116,13 @@ def test_a_scene_a_little_off_warns_where_the_right_one_does_not(horsdal):
         horsdal.engine, m=2.0 * horsdal.engine.m))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        res = reconstruct(log, heavy)
+        res = reconstruct(log, heavy, method="smooth")
     doubts = [str(w.message) for w in caught if "a little off" in str(w.message)]
     assert len(doubts) == 1 and "mass m" in doubts[0] and "L4" in doubts[0]
     assert any("a little off" in n for n in res.attrs["reconstruction"].notes)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        right = reconstruct(log, horsdal)
+        right = reconstruct(log, horsdal, method="smooth")
     assert not [w for w in caught if "a little off" in str(w.message)]
     assert right.attrs["reconstruction"].event_sources["release"] == SOURCE
 
@@ -138,7 +141,7 @@ def test_another_engine_than_the_scene_warns_and_keeps_the_smoothers_release(hor
                                                                               backyard):
     log, _ = continued_sling_log(backyard, 240, 0.5, "pendulum", seed=0)
     with pytest.warns(ModelValidityWarning, match="is the scene the engine filmed"):
-        res = reconstruct(log, horsdal)
+        res = reconstruct(log, horsdal, options=ReconstructOptions(scene_mismatch="warn"))
     assert res.attrs["reconstruction"].event_sources["release"] != SOURCE
     # the kept smoothing has the calibrated bands, not the checking smoothing's posterior
     assert np.any(res.attrs["reconstruction"].noise["theta"]["band_scale"] < 1.0)
@@ -221,15 +224,22 @@ def test_phase_change_profile_puts_the_change_where_the_phases_swap():
 
 
 def test_release_choice():
+    """Where the sling's track goes on: the equations' release replaces the jump search's
+    where they differ; where the equations cannot place it, the jump's is unconfirmed: its
+    sd covers the scene's own release time, and it warns."""
     fit = ModelRelease(1.0, 0.002, 0.2, 1.0, 100.0, SOURCE)
-    assert release_choice(fit, 1.0015) == (False, None)  # within its sd: agreed
-    use, note = release_choice(fit, 1.05)
-    assert use and "50 ms before" in note
-    use, note = release_choice(fit, None)
-    assert use and "no jump" in note
-    use, note = release_choice(dataclasses.replace(fit, misfit=12.0), 1.05)
-    assert not use and "engine filmed" in note
-    assert release_choice(dataclasses.replace(fit, time=None), 1.05) == (False, None)
+    frame, timing = 1 / 240, SceneTiming(1.02)
+    agreed = release_without_track_end(fit, 1.0015, 0.5 * frame, frame, timing)
+    assert agreed.kind == "jump" and agreed.time == 1.0015 and agreed.note is None
+    assert agreed.confirmed and agreed.warning is None
+    c = release_without_track_end(fit, 1.05, 0.5 * frame, frame, timing)
+    assert c.kind == "equations" and c.time == 1.0 and "50 ms before" in c.note
+    c = release_without_track_end(fit, None, 0.5 * frame, frame, timing)
+    assert c.kind == "equations" and "no jump" in c.note
+    for model in (dataclasses.replace(fit, misfit=12.0), dataclasses.replace(fit, time=None)):
+        c = release_without_track_end(model, 1.05, 0.5 * frame, frame, timing)
+        assert c.time == 1.05 and not c.confirmed and "uncertain" in c.warning
+        assert 2.0 * c.sd >= 0.03  # covers the scene's own release, 30 ms away
 
 
 def test_bad_input_is_refused(backyard):

@@ -10,7 +10,7 @@ import shutil
 
 import pytest
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import shot_summary, sweep_design, sweep_scene
 from trebuchet.model.scene import Scene, with_numbers
 from trebuchet.model.shot_summary import FIGURES, designs_figures, shot_figures

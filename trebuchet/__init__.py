@@ -10,6 +10,7 @@ The public API (docs/interface.md)::
     log = tb.read_log("shot.csv")         # t, theta, psi, phi in rad
     est = tb.smooth(log)                  # derivatives with *_sd
     measured = tb.reconstruct("shot.csv", scene)
+    fitted = tb.identify("shot.csv", scene)   # the engine fitted to its shot
 
 Units are SI throughout: m, kg, s, rad, N, N m, W, J.
 
@@ -17,23 +18,24 @@ Each name loads on first use: ``import trebuchet`` itself imports neither numpy 
 that the ``trebuchet`` command (``trebuchet --help``, a usage error) answers at once; the model
 (numpy, pandas, numba) loads with the first ``tb.Scene`` or ``tb.simulate``, the ingest path
 (filterpy, scipy) with the first ``tb.read_log``, ``tb.smooth``, ``tb.reconstruct`` or
-``tb.compare``.
+``tb.compare`` or ``tb.identify``.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from trebuchet import interrupts
+from trebuchet.core import interrupts
 
 if interrupts.started_as_command():  # the ``trebuchet`` command: Ctrl-C quiet from here on
     interrupts.catch_interrupts()
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetDataWarning, TrebuchetInputError
-from trebuchet.version import __version__
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.core.version import __version__
 
 if TYPE_CHECKING:
     from trebuchet.ingest.compare import compare
+    from trebuchet.ingest.identification.identify import identify
     from trebuchet.ingest.logs.read_log import read_log
     from trebuchet.ingest.reconstruct import reconstruct
     from trebuchet.ingest.smoothing.smooth import smooth
@@ -43,8 +45,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Scene", "Engine", "Start", "Release", "simulate", "forces", "read_log", "smooth",
-    "reconstruct", "compare", "TrebuchetInputError", "TrebuchetDataWarning", "ModelValidityWarning",
-    "__version__", "design",
+    "reconstruct", "compare", "identify", "design", "TrebuchetInputError",
+    "TrebuchetDataWarning", "ModelValidityWarning", "__version__",
 ]
 
 _LAZY = {
@@ -59,6 +61,7 @@ _LAZY = {
     "reconstruct": ("trebuchet.ingest.reconstruct", "reconstruct"),
     "compare": ("trebuchet.ingest.compare", "compare"),
     "design": ("trebuchet.model.design", "design"),
+    "identify": ("trebuchet.ingest.identification.identify", "identify"),
 }
 
 

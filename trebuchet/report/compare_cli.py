@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from trebuchet.errors import TrebuchetInputError, cli_command, warn_at_caller
+from trebuchet.core.errors import TrebuchetInputError, cli_command, warn_at_caller
 from trebuchet.ingest.cli import add_reconstruct_arguments, reconstruct_options
 from trebuchet.ingest.settings import ALIGN_MODES, CHANCE_RUNS, RELEASE_MODES
 from trebuchet.report.report_cli import CAPTIONS
@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from trebuchet.ingest.compare import CompareOptions
     from trebuchet.model.scene import Scene
 
-__all__ = ["register", "compare_report", "ANGLE_MISFIT_ADVISORY"]
+__all__ = ["register", "compare_report", "fitted_html", "ANGLE_MISFIT_ADVISORY"]
 
 ANGLE_MISFIT_ADVISORY = 4.0  # sd² per row: above this the angles themselves disagree
 
@@ -54,14 +54,18 @@ def _advisories(caught: list[warnings.WarningMessage], predicted: pd.DataFrame) 
 
 def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
                    out_dir: str | Path, *, options: CompareOptions | None = None,
-                   progress: Callable[[str], None] | None = None,
+                   progress: Callable[[str], None] | None = None, fit: bool | None = None,
                    **reconstruct_options) -> tuple[Path, pd.DataFrame]:
     """Compare a log with ``scene`` (:func:`~trebuchet.ingest.compare.compare`) and write
     ``out_dir``: ``index.html`` (the verdict and a short table first, then the figures, then
     every metric and the events under "Details"), ``metrics.csv`` (the contract's columns
     first, SI), ``events.csv`` and one PNG per figure of
     :data:`trebuchet.report.figures.FIGURES`. Atomic: after an error there is no report (an
-    older one at ``out_dir`` stays). Returns the report's path and the metrics."""
+    older one at ``out_dir`` stays). Returns the report's path and the metrics. ``fit``: the
+    scene as fitted to the shot beside the scene as given (:mod:`.fitted_compare`): True
+    always, False never, None (default) where the given scene differs; its sentence leads,
+    ``fitted_metrics.csv`` and ``fitted_keys.csv`` join the files and ``metrics.attrs``
+    holds it as ``"fitted"``."""
     from trebuchet.ingest.compare import CompareOptions, compare, event_table
     from trebuchet.ingest.logs.result import read_log_info
     from trebuchet.ingest.reconstruction import reconstruction_of
@@ -77,6 +81,7 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
         table, measured, predicted = compare(log, scene, options=options, progress=say,
                                              **reconstruct_options)
     advisories = _advisories(caught, predicted)
+    fitted = _fitted(measured, table, scene, options, log, reconstruct_options, fit, say)
     events = event_table(measured, predicted)
     done = reconstruction_of(measured)
     notes = " ".join(str(n).rstrip(".") + "." for n in done.notes)
@@ -96,6 +101,12 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
                if e == "release" and math.isfinite(m)]
     lead = verdict_html(table, scene, release_ms=1e3 * release[0] if release else None,
                         level=options.chance_level)
+    details, files = {}, {"metrics.csv": table, "events.csv": events}
+    if fitted is not None:
+        lead = fitted_html(fitted) + lead
+        details["The scene as given and as fitted to the shot"] = fitted.keys
+        files |= {"fitted_metrics.csv": fitted.metrics, "fitted_keys.csv": fitted.keys}
+        table.attrs["fitted"] = fitted
     from trebuchet.report.figures import FIGURES  # matplotlib loads only to draw
 
     figures = {key: (lambda make=make: make(predicted, measured, scene))
@@ -105,11 +116,44 @@ def compare_report(log: str | Path | pd.DataFrame, scene: Scene | str | Path,
                        captions=CAPTIONS, intro=intro, progress=say, lead_html=lead,
                        details={"All metrics (units of the figures; SI in metrics.csv)":
                                 details_table(table, scene),
-                                "Events (ms after the log's trigger)": events_table(events)},
-                       files={"metrics.csv": table, "events.csv": events},
+                                "Events (ms after the log's trigger)": events_table(events),
+                                **details},
+                       files=files,
                        inputs=[log if isinstance(log, str | Path) else None, scene.source,
                                reconstruct_options.get("calibration")])
     return out, table
+
+
+def _fitted(measured: pd.DataFrame, table: pd.DataFrame, scene: Scene,
+            options: CompareOptions, log: str | Path | pd.DataFrame,
+            reconstruct_options: Mapping[str, object], fit: bool | None,
+            say: Callable[[str], None]):
+    """The scene as fitted beside the scene as given (:mod:`.fitted_compare`), or None; its
+    warnings pass to the caller."""
+    from trebuchet.report.fitted_compare import fitted_comparison
+
+    differs = "verdict" in table and bool((table["verdict"] == "differs").any())
+    if fit is False or (fit is None and not differs):
+        return None
+    say("comparing the scene as fitted to the log")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        found = fitted_comparison(measured, table, scene, options, log, reconstruct_options,
+                                  fit=fit)
+    for w in caught:
+        warn_at_caller(w.message, w.category)
+    return found
+
+
+def fitted_html(fitted) -> str:
+    """The lead paragraph of the scene as fitted: its sentence and the side-by-side table."""
+    import html
+
+    from trebuchet.report.page import table_html
+
+    return (f'<div class="verdict" id="fitted"><p><strong>{html.escape(fitted.sentence)}'
+            "</strong></p>" + table_html(fitted.side_by_side, css_class="main", stack=True)
+            + "</div>")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -136,6 +180,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--chance-runs", type=int, default=CHANCE_RUNS,
                    metavar="N", help="simulated logs that estimate what chance allows "
                    f"(default {CHANCE_RUNS}; 0: no verdict)")
+    p.add_argument("--fit", action="store_true", default=None,
+                   help="also show the scene as fitted to the shot (trebuchet identify) beside "
+                        "the scene as given, and which parameters carry the difference "
+                        "(default: where the given scene differs)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(run=_compare)
 
@@ -164,9 +212,9 @@ def _release_rule(args: argparse.Namespace) -> str:
 
 @cli_command
 def _compare(args: argparse.Namespace) -> int:
+    from trebuchet.core.output import check_target
     from trebuchet.ingest.compare import CompareOptions
     from trebuchet.model.scene import Scene
-    from trebuchet.output import check_target
 
     start = time.monotonic()
     # what can be checked before the progress lines start: the report folder, the log, the scene
@@ -181,9 +229,12 @@ def _compare(args: argparse.Namespace) -> int:
     compare_options = CompareOptions(release=rule, align=args.align,
                                      chance_runs=args.chance_runs)
     out, table = compare_report(args.log, scene, args.output, options=compare_options,
-                                progress=None if args.quiet else _stderr, **options)
+                                progress=None if args.quiet else _stderr, fit=args.fit,
+                                **options)
+    fitted = table.attrs.get("fitted")
+    also = f"; {fitted.sentence}" if fitted is not None else ""
     print(f"compare {args.log} against {args.scene} -> {out / 'index.html'}: "
-          f"{_verdict_line(table)} ({time.monotonic() - start:.1f} s)")
+          f"{_verdict_line(table)}{also} ({time.monotonic() - start:.1f} s)")
     return 0
 
 
