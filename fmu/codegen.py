@@ -41,6 +41,7 @@ from trebuchet.model.scene import default_moment_of_inertia
 
 __all__ = ["Formula", "FORMULAS", "PARAMETER_NAMES", "ANGLE_NAMES", "LOAD_OUTPUTS",
            "generate_c", "generate_header", "engine_namespace", "ENGINE_FORMULAS", "ROW_NAMES",
+           "PEAK_ROW_NAMES",
            "generate_rows_header", "traced", "sympy_math"]
 
 #: The engine's parameters, in the order of the generated functions' ``q`` array: lengths (m),
@@ -385,29 +386,51 @@ def _counterweight_height(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -
                                           lib.sin(x["ps"]), e, H)[1]]
 
 
-def _rows(phase: int, friction: bool) -> Build:
+#: The columns of :data:`ROW_NAMES` a design's peak search takes (``fmu/c/treb_peaks.c``,
+#: ``model/summary_kernel.py``'s extrema): the loads, the energies and the counterweight's
+#: height. Their formulas alone cost about half of a whole row.
+PEAK_ROW_NAMES = ("F_S_abs", "F_H_abs", "F_R_abs", "F_R_perp", "torque", "sling_tension",
+                  "E_m", "E_M", "E_beam", "E_loss_pivot", "E_loss_hinge", "y_M")
+
+
+def _rows(phase: int, friction: bool, names: tuple[str, ...] = ROW_NAMES,
+          expand: bool = False) -> Build:
+    """The columns ``names`` of :data:`ROW_NAMES`; ``expand``: on symbols, the sines and
+    cosines of sums of angles expanded (sympy's ``expand_trig``), so that the C takes the
+    sine and cosine of each angle once (3 ``sincos`` where 5 were; the same numbers to
+    rounding)."""
     outputs = _outputs(phase, friction, ROW_NAMES[:-1])
+    where = [ROW_NAMES.index(n) for n in names]
 
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
-        return [*outputs(e, g, H, x, lib), *_counterweight_height(e, g, H, x, lib)]
+        row = [*outputs(e, g, H, x, lib), *_counterweight_height(e, g, H, x, lib)]
+        if expand and lib is not math:
+            import sympy as sp
+
+            return [sp.expand_trig(sp.sympify(row[i])) for i in where]
+        return [row[i] for i in where]
     return build
 
 
 def _engine_formulas() -> tuple[Formula, ...]:
     """The in-process engine's formulas (``treb_rows.c``; not in the FMU): every row column of
-    each phase, counterweight, friction and dry fire, and the counterweight's height."""
+    each phase, counterweight, friction and dry fire, the same for the columns of the peak
+    search (:data:`PEAK_ROW_NAMES`), and the counterweight's height."""
     out: list[Formula] = []
     for fixed in (False, True):
         cw = "fixed" if fixed else "hinged"
         for friction in (False, True):
             tail, extra = ("_friction", (*_LOST, *_Q)) if friction else ("", ())
             for phase, dry in ((1, False), (2, False), (3, False), (3, True)):
-                out.append(Formula(f"rows{phase}_{cw}{'_dry' if dry else ''}{tail}",
-                                   f"phase {phase}{' (dry fire)' if dry else ''}: every column "
-                                   "of simulate's rows (dynamics + forces.row_loads)",
-                                   (*_STATE[phase], *extra, *_REST), ROW_NAMES,
-                                   _rows(phase, friction), fixed, dry=dry,
-                                   friction=friction))
+                name = f"{phase}_{cw}{'_dry' if dry else ''}{tail}"
+                what = f"phase {phase}{' (dry fire)' if dry else ''}"
+                for suffix, names, doc in (
+                        ("", ROW_NAMES, "every column of simulate's rows"),
+                        ("_peak", PEAK_ROW_NAMES, "the columns of the peak search")):
+                    out.append(Formula(f"rows{name}{suffix}", f"{what}: {doc} (dynamics + "
+                                       "forces.row_loads)", (*_STATE[phase], *extra, *_REST),
+                                       names, _rows(phase, friction, names, bool(suffix)),
+                                       fixed, dry=dry, friction=friction))
     out.append(Formula("counterweight_height", "kinematics.counterweight_position_xy: the "
                        "height of the counterweight's centre (m)", ("th", "ps"), ("y_M",),
                        _counterweight_height))
@@ -492,6 +515,8 @@ def generate_rows_header() -> str:
              f'#define TREB_ROW_NAMES "{" ".join(ROW_NAMES)}"',
              f'#define TREB_PARAMETER_NAMES "{" ".join(PARAMETER_NAMES)}"']
     lines += [f"#define TREB_ROW_{n} {i}" for i, n in enumerate(ROW_NAMES)]
+    lines += [f"#define TREB_N_PEAK_ROWS {len(PEAK_ROW_NAMES)}"]
+    lines += [f"#define TREB_PEAK_ROW_{n} {i}" for i, n in enumerate(PEAK_ROW_NAMES)]
     lines += [f"void treb_{f.name}(const double *q, const double *x, double *out);"
               for f in ENGINE_FORMULAS]
     lines += ["", "#endif", ""]

@@ -6,9 +6,11 @@ it with ctypes): :func:`write_engine_sources` writes the FMU's sources
 Python, the DOP853 glue ``treb_shot.c``) and the engine's own, ``treb_rows.c`` (every column of
 ``simulate``'s table, generated from ``forces.row_loads`` by
 :data:`trebuchet.fmu.codegen.ENGINE_FORMULAS`) and ``treb_batch.c`` (the hand-written loop over
-output times and the figures of a design); :func:`build_engine` compiles them with gcc into one
-shared library. ``python -m trebuchet.fmu.engine_build OUT`` does both (the simulator runs it
-in a subprocess when its library is missing or stale, as numba compiles on first use).
+output times and the figures of a design on a table's rows) and ``treb_peaks.c`` (a design's
+figures over the continuous shot, one call for many designs); :func:`build_engine` compiles
+them with gcc into one shared library. ``python -m trebuchet.fmu.engine_build OUT`` does both
+(the simulator runs it in a subprocess when its library is missing or stale, as numba
+compiles on first use).
 """
 
 from __future__ import annotations
@@ -27,9 +29,10 @@ __all__ = ["ENGINE_GLUE", "ENGINE_SOURCES", "ENGINE_CFLAGS", "write_engine_sourc
            "main"]
 
 #: The engine's hand-written files beside the FMU's (``fmu/c/``).
-ENGINE_GLUE = ("treb_batch.h", "treb_batch.c")
+ENGINE_GLUE = ("treb_batch.h", "treb_batch.c", "treb_peaks.h", "treb_peaks.c")
 #: The translation units of the engine's library.
-ENGINE_SOURCES = ("treb_formulas.c", "treb_rows.c", "treb_shot.c", "treb_batch.c")
+ENGINE_SOURCES = ("treb_formulas.c", "treb_rows.c", "treb_shot.c", "treb_batch.c",
+                  "treb_peaks.c")
 #: The FMU's flags, at -O3 and with sqrt inlined (no errno): the same numbers bit for bit
 #: (ISO C99 contracts no multiply-add; nothing is reassociated), ~10 % faster.
 ENGINE_CFLAGS = ("-O3", "-fno-math-errno", *(f for f in CFLAGS if f != "-O2"))

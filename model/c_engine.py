@@ -44,7 +44,7 @@ from trebuchet.model.friction import has_friction
 from trebuchet.model.scene import Scene
 
 __all__ = ["EngineUnavailable", "available", "require", "library", "library_path", "CShot",
-           "CPhase", "Table",
+           "CPhase", "Table", "scene_numbers",
            "ANGLE_NAMES", "ROW_NAMES", "PARAMETER_NAMES", "table_names", "FIGURES_C"]
 
 #: Angles, rates, accelerations: the first columns of every row (rad, rad/s, rad/s²).
@@ -62,6 +62,7 @@ FIGURES_C = ("F_S_peak", "F_H_peak", "F_R_peak", "F_R_perp_peak", "torque_peak",
              "loss_at_release")
 _N_FLAGS, _N_PARS, _N_INFO, _MSG = 6, 13, 20, 512
 _PROJECTILE = {"trough": 1, "sling": 2, "none": 3}
+_NO_REST = (float("nan"),) * 3
 
 # ---------------------------------------------------------------------------------------------
 # The library: found, built when missing or stale, loaded once
@@ -73,7 +74,8 @@ class EngineUnavailable(RuntimeError):
 
 _MODEL_SOURCES = (kinematics, friction, forces, dynamics, phase_events, flight, scene)
 _FMU_SOURCES = ("codegen.py", "csources.py", "interface.py", "build.py", "engine_build.py",
-                "c/treb_shot.h", "c/treb_shot.c", "c/treb_batch.h", "c/treb_batch.c")
+                "c/treb_shot.h", "c/treb_shot.c", "c/treb_batch.h", "c/treb_batch.c",
+                "c/treb_peaks.h", "c/treb_peaks.c")
 _state: dict[str, object] = {}
 
 
@@ -217,10 +219,11 @@ def require(method: str) -> ctypes.CDLL:
 # A shot
 
 
-def _arrays(sc: Scene, rtol: float, after_release: float
-            ) -> tuple[ctypes.Array, ctypes.Array, ctypes.Array]:
+def scene_numbers(sc: Scene, rtol: float, after_release: float, rest: bool = True
+                  ) -> tuple[tuple[float, ...], tuple[int, ...], tuple[float, ...]]:
     """The scene as the C takes it: parameters ``q`` (:data:`PARAMETER_NAMES`), switches and
-    numbers (treb_batch.h's TREB_FLAG_*, TREB_PAR_*)."""
+    numbers (treb_batch.h's TREB_FLAG_*, TREB_PAR_*); ``rest=False`` leaves the energies at
+    rest to the C (NaN: its generated formula, the same as ``forces.rest_energies``)."""
     e, s, rel, fl = sc.engine, sc.start, sc.release, sc.flight
     offset = e.counterweight_offset
     q = (e.L1, e.L2, e.L_CM, e.L3, e.L4, e.m_b, e.M, e.m, e.I,
@@ -229,7 +232,15 @@ def _arrays(sc: Scene, rtol: float, after_release: float
     flags = (e.fixed_counterweight, _PROJECTILE[sc.projectile], fl.model == "drag",
              has_friction(e), rel.time is not None, rel.velocity_angle is not None)
     par = (s.theta, s.psi, s.phi, rel.time or 0.0, rel.velocity_angle or 0.0, fl.diameter,
-           fl.drag_coefficient, fl.air_density, rtol, after_release, *forces.rest_energies(sc))
+           fl.drag_coefficient, fl.air_density, rtol, after_release,
+           *(forces.rest_energies(sc) if rest else _NO_REST))
+    return q, tuple(map(int, flags)), par
+
+
+def _arrays(sc: Scene, rtol: float, after_release: float
+            ) -> tuple[ctypes.Array, ctypes.Array, ctypes.Array]:
+    """:func:`scene_numbers` as ctypes arrays."""
+    q, flags, par = scene_numbers(sc, rtol, after_release)
     return ((ctypes.c_double * len(q))(*map(float, q)),
             (ctypes.c_int * _N_FLAGS)(*map(int, flags)),
             (ctypes.c_double * _N_PARS)(*map(float, par)))

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from trebuchet.core.errors import TrebuchetInputError
 
 __all__ = ["Engine", "Friction", "Start", "Release", "Flight", "default_moment_of_inertia",
-           "DEFAULT_SMOOTHING_RATE"]
+           "spigot_on_ground", "DEFAULT_SMOOTHING_RATE"]
 
 #: rad/s: the sliding rate over which the friction couple's sign turns, ``tanh(w / rate)``.
 DEFAULT_SMOOTHING_RATE = 1e-3
@@ -29,6 +29,12 @@ def default_moment_of_inertia(m_b: float, L1: float, L2: float) -> float:
     ``I = m_b (L1² − L1 L2 + L2²) / 3`` (the paper, Section 2; 7704 kg m² for Table 1).
     """
     return m_b * (L1 * L1 - L1 * L2 + L2 * L2) / 3.0
+
+
+def spigot_on_ground(L1: float, theta: float) -> float:
+    """The pivot's height ``H = −L1 sin θ`` (m) that puts the spigot on the ground at the start
+    angle ``theta`` (rad): the paper's, and a scene file's without ``H``."""
+    return -L1 * math.sin(theta)
 
 
 @dataclass(frozen=True)
@@ -100,7 +106,8 @@ class Engine:
         positive = ("L1", "L2", "L3", "m_b", "M", "I")
         for name in (*positive, "L4", "m"):  # no sling or projectile in a dry fire: 0
             value = getattr(self, name)
-            if not (isinstance(value, numbers.Real) and math.isfinite(value)):
+            if not ((type(value) is float or isinstance(value, numbers.Real))  # the first: quick
+                    and math.isfinite(value)):
                 raise TrebuchetInputError(f"Engine: {name} = {value!r}: must be a finite number")
             if value < 0.0 or (value == 0.0 and name in positive):
                 raise TrebuchetInputError(f"Engine: {name} = {value:g}: must be "

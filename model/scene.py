@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -29,10 +30,20 @@ from trebuchet.model.engine import (
     Release,
     Start,
     default_moment_of_inertia,
+    spigot_on_ground,
+)
+from trebuchet.model.scene_rules import (
+    SCENE_KEYS,
+    SECTIONS,
+    Reader,
+    check_lift,
+    check_release,
+    check_start_pose,
+    check_theta,
 )
 
 __all__ = ["Engine", "Friction", "Start", "Release", "Flight", "Scene", "SCENE_KEYS", "as_scene",
-           "default_moment_of_inertia", "DEFAULT_SMOOTHING_RATE"]
+           "default_moment_of_inertia", "DEFAULT_SMOOTHING_RATE", "with_numbers"]
 
 @dataclass(frozen=True)
 class Scene:
@@ -151,143 +162,113 @@ def as_scene(scene: Scene | str | Path, what: str = "trebuchet") -> Scene:
                               f"{type(scene).__name__}")
 
 
+def with_numbers(scene: Scene, numbers: Mapping[str, float | None], source: str | None = None,
+                 phi_of: Callable[[float, float, float, float], float | None] | None = None
+                 ) -> Scene:
+    """``Scene.from_dict`` of the scene's dict (:meth:`Scene.to_dict`) with the file's
+    ``numbers`` ("section.key", the file's units) put in, without the dict (a sweep's designs):
+    ``engine.I`` or ``engine.H`` None is left out (the file's default); ``phi_of(theta, L1, L4,
+    H)`` (rad, m) gives ``phi`` (rad, None: the scene's); a release key replaces the rule. The
+    numbers given pass their keys' rules, the scene the rules joining keys (``scene_rules``);
+    the scene's own are taken as they are (``from_dict`` has read them). Raises
+    TrebuchetInputError where a rule refuses (``from_dict`` words it as the file does),
+    KeyError for what it does not take: a word, a dry fire, a section the scene has not."""
+    if scene.projectile == "none":
+        raise KeyError("with_numbers: a dry fire")
+    read = Reader({}, source or scene.source)
+    v = _numbers_of(scene).copy()
+    releases = 0
+    for key, value in numbers.items():
+        plain = key.removesuffix("_deg")
+        if value is None and key in ("engine.I", "engine.H"):
+            v[key] = None
+            continue
+        if plain not in v or not (plain == key or plain in _ANGLES):
+            raise KeyError(f"with_numbers: {key}")
+        section, _, name = key.partition(".")
+        if section == "release":
+            releases += 1
+            v["release.time"] = v["release.velocity_angle"] = None
+        if plain in _ANGLES:
+            number = read.number(section, name, {name: value})
+            v[plain] = math.radians(number) if plain != key else number
+        else:
+            v[key] = read.value(section, name, {name: value})
+    if releases > 1:
+        raise KeyError("with_numbers: two release rules")
+    return _numbers_scene(scene, v, read, phi_of)
+
+
+def _numbers_of(scene: Scene) -> dict[str, Any]:
+    """The scene's numbers as its dict gives them back ("section.key": SI, angles in rad read
+    back from degrees), friction's and drag's where it has them. The last scene asked about is
+    remembered (a sweep asks about its base for each design)."""
+    global _last_numbers
+    last = _last_numbers  # one tuple, read and replaced whole (threads)
+    if last[0] is not scene:
+        e, st, rel, fr, fl = scene.engine, scene.start, scene.release, scene.friction, scene.flight
+        theta, psi, phi, angle = (None if a is None else math.radians(math.degrees(a))
+                                  for a in (st.theta, st.psi, st.phi, rel.velocity_angle))
+        v = {"engine.L1": e.L1, "engine.L2": e.L2, "engine.L_CM": e.L_CM, "engine.L3": e.L3,
+             "engine.L4": e.L4, "engine.m_b": e.m_b, "engine.M": e.M, "engine.m": e.m,
+             "engine.I": e.I, "engine.H": st.H, "start.theta": theta, "start.psi": psi,
+             "start.phi": phi, "release.time": rel.time, "release.velocity_angle": angle,
+             "environment.g": scene.g}
+        for section, obj in (("friction", fr), ("flight", fl if fl.model == "drag" else None)):
+            if obj is not None:
+                v.update((f"{section}.{k}", getattr(obj, k))
+                         for k in SECTIONS[section] - {"model"})
+        last = _last_numbers = (scene, v)
+    return last[1]
+
+
+_last_numbers: tuple[Scene | None, dict[str, Any]] = (None, {})
+
+
+def _numbers_scene(scene: Scene, v: dict[str, Any], read: Reader,
+                   phi_of: Callable[[float, float, float, float], float | None] | None
+                   ) -> Scene:
+    """:func:`with_numbers`' scene from its numbers ``v`` ("section.key": SI, rad), under the
+    rules that join keys, as :func:`_parse_scene` checks them."""
+    L1, L2, L_CM, L4, m_b, M = (v[k] for k in _LENGTHS_MASSES)
+    theta, psi = v["start.theta"], v["start.psi"]
+    check_lift(read, M, L2, m_b, L_CM)
+    check_theta(read, theta, {})
+    I = v["engine.I"] if v["engine.I"] is not None else default_moment_of_inertia(m_b, L1, L2)
+    H = v["engine.H"] if v["engine.H"] is not None else spigot_on_ground(L1, theta)
+    phi = None if phi_of is None else phi_of(theta, L1, L4, H)
+    phi = v["start.phi"] if phi is None else math.radians(math.degrees(phi))
+    fr = scene.friction and Friction(**{k: v[f"friction.{k}"] for k in SECTIONS["friction"]})
+    engine = Engine(L1=L1, L2=L2, L_CM=L_CM, L3=v["engine.L3"], L4=L4, m_b=m_b, M=M,
+                    m=v["engine.m"], I=I, friction=fr, counterweight_offset=(
+                        psi - theta if scene.engine.fixed_counterweight else None))
+    check_start_pose(read, engine, theta, psi, phi, H, scene.projectile)
+    release = Release(v["release.time"], v["release.velocity_angle"])
+    check_release(read, release, {})
+    flight = scene.flight if scene.flight.model != "drag" else Flight("drag", **{
+        k: v[f"flight.{k}"] for k in ("diameter", "drag_coefficient", "air_density")})
+    return Scene(engine=engine, start=Start(theta=theta, psi=psi, phi=phi, H=H), release=release,
+                 g=v["environment.g"], projectile=scene.projectile, flight=flight,
+                 source=read.source)
+
+
+_ANGLES = frozenset({"start.theta", "start.psi", "start.phi", "release.velocity_angle"})
+_LENGTHS_MASSES = tuple(f"engine.{k}" for k in ("L1", "L2", "L_CM", "L4", "m_b", "M"))
+
+
 # --------------------------------------------------------------------------- parsing
 
-_SECTIONS = {
-    "engine": {"L1", "L2", "L_CM", "L3", "L4", "m_b", "M", "m", "I", "H", "counterweight"},
-    "start": {"theta_deg", "psi_deg", "phi_deg", "theta", "psi", "phi", "projectile"},
-    "release": {"time", "velocity_angle_deg", "velocity_angle"},
-    "environment": {"g"},
-    "flight": {"model", "diameter", "drag_coefficient", "air_density"},
-    "friction": {"pivot_mu", "pivot_radius", "hinge_mu", "hinge_radius", "smoothing_rate"},
-}
 _REQUIRED_ENGINE = ("L1", "L2", "L_CM", "L3", "M", "m_b")
-
-#: Every key a scene file may hold, by section (the parser's own list).
-SCENE_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in _SECTIONS.items()}
-
-
-#: Largest magnitude of a scene's number (m, kg, s, m/s², degrees or rad): far beyond any
-#: engine's, short of the numbers whose products in the equations of motion overflow.
-MAX_MAGNITUDE = 1e15
-#: Least length (m) of an engine: 1 µm (a shorter sling stalls the integrator).
-MIN_LENGTH = 1e-6
-#: Least value of any other positive quantity (kg, s, m/s², kg/m³): far below any engine's,
-#: above the numbers whose reciprocal overflows.
-MIN_POSITIVE = 1e-30
 #: Bytes of a scene file (one is a few hundred).
 MAX_SCENE_BYTES = 1 << 20
 
 
-class _Reader:
-    """Reads numbers from one scene dict and names file, section and key in every error."""
-
-    def __init__(self, data: dict[str, Any], source: str) -> None:
-        self.data = data
-        self.source = source
-
-    def fail(self, section: str, key: str | None, problem: str) -> TrebuchetInputError:
-        where = f"[{section}] {key}" if key else f"[{section}]"
-        return TrebuchetInputError(f"{self.source}: {where}: {problem}")
-
-    def section(self, name: str, required: bool = True) -> dict[str, Any]:
-        sec = self.data.get(name)
-        if sec is None:
-            if required:
-                raise self.fail(name, None, "missing section")
-            return {}
-        if not isinstance(sec, dict):
-            raise self.fail(name, None, "must be a table of keys")
-        unknown = sorted(set(sec) - _SECTIONS[name])
-        if unknown:
-            raise self.fail(name, unknown[0], "unknown key (known keys: "
-                            + ", ".join(sorted(_SECTIONS[name])) + ")")
-        return sec
-
-    @staticmethod
-    def shown(value: Any) -> str:
-        """``value`` for a message, short whatever it is (a nested array, a huge integer)."""
-        if isinstance(value, list):
-            return f"an array of {len(value)}"
-        if isinstance(value, dict):
-            return f"a table of {len(value)} keys"
-        if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
-            return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
-        text = repr(value)
-        return text if len(text) <= 40 else text[:37] + "..."
-
-    def number(self, section: str, key: str, sec: dict[str, Any], unit: str = "") -> float:
-        """A finite number within ±:data:`MAX_MAGNITUDE` (in the key's unit: SI or degrees):
-        beyond it no engine's value lies, and the equations of motion overflow. ``unit`` (as
-        ``positive`` words it: "mass in kg") is named in the message."""
-        value = sec[key]
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.fail(section, key, f"must be a number, got {self.shown(value)}")
-        try:
-            number = float(value)
-        except OverflowError:
-            number = math.inf
-        if isinstance(value, float) and not math.isfinite(number):
-            raise self.fail(section, key, f"must be finite, got {value}")
-        if not abs(number) <= MAX_MAGNITUDE:
-            shown = self.shown(value) if isinstance(value, int) else f"{number:.4g}"
-            symbol = f" {unit.rsplit(' in ', 1)[-1]}" if " in " in unit and not isinstance(
-                value, int) else ""
-            raise self.fail(section, key, f"= {shown}{symbol}: beyond {MAX_MAGNITUDE:.0e}, "
-                            "which no engine's length, mass, angle or time reaches (the "
-                            "equations of motion overflow)")
-        return number
-
-    def positive(self, section: str, key: str, sec: dict[str, Any], unit: str) -> float:
-        """A positive number: a length of at least :data:`MIN_LENGTH`, anything else of at
-        least :data:`MIN_POSITIVE` (a vanishing mass or density is a limit worth taking)."""
-        value = self.number(section, key, sec, unit)
-        if value <= 0.0:
-            raise self.fail(section, key, f"= {value:g}: must be a positive {unit}")
-        least = MIN_LENGTH if unit.startswith("length") else MIN_POSITIVE
-        if value < least:
-            raise self.fail(section, key, f"= {value:.4g}: less than {least:g}, which no "
-                            f"engine's {unit} is")
-        return value
-
-    def choice(self, section: str, key: str, sec: dict[str, Any], options: tuple[str, ...]) -> str:
-        """A string key that must be one of ``options``; the first option is the default."""
-        value = sec.get(key, options[0])
-        if not isinstance(value, str) or value not in options:
-            raise self.fail(section, key, f"= {self.shown(value)}: must be one of "
-                            + ", ".join(repr(o) for o in options))
-        return value
-
-    @staticmethod
-    def angle_key(name: str, sec: dict[str, Any]) -> str:
-        """The key the file uses for the angle ``name``: ``name_deg`` or ``name`` (rad)."""
-        return name if name in sec and f"{name}_deg" not in sec else f"{name}_deg"
-
-    @staticmethod
-    def angle_text(name: str, sec: dict[str, Any], value: float) -> str:
-        """``= -50°`` or ``= -0.873 rad``: ``value`` (rad) in the unit of the key written."""
-        if _Reader.angle_key(name, sec) == name:
-            return f"= {value:g} rad ({math.degrees(value):.4g}°)"
-        return f"= {math.degrees(value):g}°"
-
-    def angle(self, section: str, name: str, sec: dict[str, Any]) -> float | None:
-        """An angle given as ``name_deg`` (degrees) or ``name`` (rad); returns rad or None."""
-        has_deg, has_rad = f"{name}_deg" in sec, name in sec
-        if has_deg and has_rad:
-            raise self.fail(section, name, f"give {name}_deg or {name}, not both")
-        if has_deg:
-            return math.radians(self.number(section, f"{name}_deg", sec))
-        if has_rad:
-            return self.number(section, name, sec)
-        return None
-
-
 def _parse_scene(data: dict[str, Any], source: str) -> Scene:
-    r = _Reader(data, source)
-    unknown = sorted(set(data) - set(_SECTIONS))
+    r = Reader(data, source)
+    unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise TrebuchetInputError(f"{source}: [{unknown[0]}]: unknown section (known sections: "
-                                  + ", ".join(sorted(_SECTIONS)) + ")")
+                                  + ", ".join(sorted(SECTIONS)) + ")")
     eng = r.section("engine")
     st = r.section("start")
     projectile = r.choice("start", "projectile", st, ("trough", "sling", "none"))
@@ -295,9 +276,7 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
     for key in required:
         if key not in eng:
             raise r.fail("engine", key, "missing key")
-    L1, L2, L3 = (r.positive("engine", k, eng, "length in m") for k in ("L1", "L2", "L3"))
-    m_b = r.positive("engine", "m_b", eng, "mass in kg")
-    M = r.positive("engine", "M", eng, "mass in kg")
+    L1, L2, L3, m_b, M = (r.value("engine", k, eng) for k in ("L1", "L2", "L3", "m_b", "M"))
     if projectile == "none":
         for key in ("L4", "m"):
             if key in eng and r.number("engine", key, eng) < 0.0:
@@ -305,22 +284,13 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
         L4 = r.number("engine", "L4", eng) if "L4" in eng else 0.0
         m = 0.0
     else:
-        L4 = r.positive("engine", "L4", eng, "length in m")
-        m = r.positive("engine", "m", eng, "mass in kg")
-    L_CM = r.number("engine", "L_CM", eng)
+        L4, m = r.value("engine", "L4", eng), r.value("engine", "m", eng)
+    L_CM = r.value("engine", "L_CM", eng)
     if not -L2 <= L_CM <= L1:
         raise r.fail("engine", "L_CM", f"= {L_CM:g} m puts the centre of mass off the beam "
                      f"(it must lie between -L2 = {-L2:g} m and L1 = {L1:g} m)")
-    if "I" in eng:
-        I = r.positive("engine", "I", eng, "moment of inertia in kg m²")
-    else:
-        I = default_moment_of_inertia(m_b, L1, L2)
-    if M * L2 <= m_b * L_CM:
-        # a beam ten times its counterweight is a typo in m_b; else the counterweight is light
-        key, value = ("m_b", m_b) if m_b > 10.0 * M else ("M", M)
-        raise r.fail("engine", key, f"= {value:g} kg: the counterweight cannot lift the beam: "
-                     f"its moment M L2 = {M * L2:g} kg m must exceed the beam's m_b L_CM = "
-                     f"{m_b * L_CM:g} kg m (M = {M:g} kg, m_b = {m_b:g} kg)")
+    I = r.value("engine", "I", eng) if "I" in eng else default_moment_of_inertia(m_b, L1, L2)
+    check_lift(r, M, L2, m_b, L_CM)
     mount = r.choice("engine", "counterweight", eng, ("hinged", "fixed"))
 
     angles: dict[str, float] = {}
@@ -333,14 +303,8 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
                 raise r.fail("start", f"{name}_deg", "missing key")
         angles[name] = value
     theta, psi, phi = angles["theta"], angles["psi"], angles["phi"]
-    if not -math.pi / 2 < theta < 0.0:
-        key = r.angle_key("theta", st)
-        hint = ""
-        if key == "theta" and -90.0 < theta < 0.0:
-            hint = f"; theta is in rad: for degrees write theta_deg = {theta:g}"
-        raise r.fail("start", key, f"{r.angle_text('theta', st, theta)}: the beam must start "
-                     f"between -90° and 0° (spigot low, on the projectile's side){hint}")
-    H = r.positive("engine", "H", eng, "height in m") if "H" in eng else -L1 * math.sin(theta)
+    check_theta(r, theta, st)
+    H = r.value("engine", "H", eng) if "H" in eng else spigot_on_ground(L1, theta)
     offset = psi - theta if mount == "fixed" else None
     friction = _parse_friction(r)
     try:
@@ -348,7 +312,7 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
                         counterweight_offset=offset, friction=friction)
     except TrebuchetInputError as exc:  # "Engine: I = inf: ...": the file's key, by name
         raise _engine_error(r, eng, exc) from None
-    _check_start_pose(r, engine, theta, psi, phi, H, projectile, st, "H" in eng)
+    check_start_pose(r, engine, theta, psi, phi, H, projectile, st, "H" in eng)
     start = Start(theta=theta, psi=psi, phi=phi, H=H)
 
     if projectile == "none":
@@ -357,23 +321,20 @@ def _parse_scene(data: dict[str, Any], source: str) -> Scene:
         release = Release()
     else:
         rel = r.section("release")
-        t_rel = r.positive("release", "time", rel, "time in s") if "time" in rel else None
+        t_rel = r.value("release", "time", rel) if "time" in rel else None
         angle_rel = r.angle("release", "velocity_angle", rel)
         if (t_rel is None) == (angle_rel is None):
             raise r.fail("release", None, "give exactly one of time, velocity_angle_deg")
-        if angle_rel is not None and not 0.0 < angle_rel < math.pi / 2:
-            raise r.fail("release", r.angle_key("velocity_angle", rel),
-                         f"{r.angle_text('velocity_angle', rel, angle_rel)}: "
-                         "must lie strictly between 0° and 90°")
         release = Release(t_rel, angle_rel)
+        check_release(r, release, rel)
 
     env = r.section("environment", required=False)
-    g = r.positive("environment", "g", env, "acceleration in m/s²") if "g" in env else 9.81
+    g = r.value("environment", "g", env) if "g" in env else 9.81
     return Scene(engine=engine, start=start, release=release, g=g, projectile=projectile,
                  flight=_parse_flight(r), source=source)
 
 
-def _engine_error(r: _Reader, eng: dict[str, Any], exc: TrebuchetInputError
+def _engine_error(r: Reader, eng: dict[str, Any], exc: TrebuchetInputError
                   ) -> TrebuchetInputError:
     """An :class:`Engine`'s refusal in the words of the scene file: the key as written, or
     for a moment of inertia not given, the keys it is computed from."""
@@ -387,7 +348,7 @@ def _engine_error(r: _Reader, eng: dict[str, Any], exc: TrebuchetInputError
     return r.fail("engine", name, f"= {value}: {problem}")
 
 
-def _parse_friction(r: _Reader) -> Friction | None:
+def _parse_friction(r: Reader) -> Friction | None:
     """The ``[friction]`` section: None where the scene has none (the paper's engine). A
     coefficient needs its radius and a radius its coefficient; each is zero or positive."""
     fr = r.section("friction", required=False)
@@ -396,9 +357,7 @@ def _parse_friction(r: _Reader) -> Friction | None:
     values: dict[str, float] = {}
     for key in ("pivot_mu", "pivot_radius", "hinge_mu", "hinge_radius"):
         if key in fr:
-            values[key] = r.number("friction", key, fr)
-            if values[key] < 0.0:
-                raise r.fail("friction", key, f"= {values[key]:g}: must not be negative")
+            values[key] = r.value("friction", key, fr)
     for joint in ("pivot", "hinge"):
         mu, radius = f"{joint}_mu", f"{joint}_radius"
         if (mu in values) != (radius in values):
@@ -406,11 +365,11 @@ def _parse_friction(r: _Reader) -> Friction | None:
             raise r.fail("friction", missing, f"missing key ({given} needs it: the {joint}'s "
                          "friction couple is mu x radius x load)")
     if "smoothing_rate" in fr:
-        values["smoothing_rate"] = r.positive("friction", "smoothing_rate", fr, "rate in rad/s")
+        values["smoothing_rate"] = r.value("friction", "smoothing_rate", fr)
     return Friction(**values)
 
 
-def _parse_flight(r: _Reader) -> Flight:
+def _parse_flight(r: Reader) -> Flight:
     fl = r.section("flight", required=False)
     model = r.choice("flight", "model", fl, ("vacuum", "drag"))
     if model == "vacuum":
@@ -423,63 +382,8 @@ def _parse_flight(r: _Reader) -> Flight:
                      "projectile's diameter in m)")
     return Flight(
         model="drag",
-        diameter=r.positive("flight", "diameter", fl, "length in m"),
-        drag_coefficient=(r.positive("flight", "drag_coefficient", fl, "number")
+        diameter=r.value("flight", "diameter", fl),
+        drag_coefficient=(r.value("flight", "drag_coefficient", fl)
                           if "drag_coefficient" in fl else 0.47),
-        air_density=(r.positive("flight", "air_density", fl, "density in kg/m³")
-                     if "air_density" in fl else 1.225),
+        air_density=(r.value("flight", "air_density", fl) if "air_density" in fl else 1.225),
     )
-
-
-def _check_start_pose(r: _Reader, e: Engine, theta: float, psi: float, phi: float, H: float,
-                      projectile: str, st: dict[str, Any] | None = None,
-                      H_given: bool = True) -> None:
-    """Spigot and counterweight above ground; the projectile in the trough (y = 0) at the end of
-    the taut sling, or hanging above ground in the sling. Each refusal names the key that is
-    wrong, as the file wrote it (``theta_deg`` or ``theta``)."""
-    st = st or {}
-
-    def key(name: str) -> str:
-        return r.angle_key(name, st)
-
-    def text(name: str, value: float) -> str:
-        return r.angle_text(name, st, value)
-
-    spigot_y = H + e.L1 * math.sin(theta)
-    if spigot_y < -1e-9 * e.L1:
-        raise r.fail("start", key("theta"), f"{text('theta', theta)} puts the spigot "
-                     f"{-spigot_y:.3g} m below ground (pivot height H = {H:g} m)")
-    cw_y = H - e.L2 * math.sin(theta) + e.L3 * math.sin(psi)
-    if cw_y < 0.0:
-        # hanging straight down (ψ = −90°) is its lowest pose: below ground at some ψ means
-        # the pivot is too low for L3, whatever ψ; the key at fault sets the pivot's height
-        if H_given:
-            raise r.fail("engine", "H", f"= {H:g} m: the pivot is too low for the "
-                         f"counterweight (L3 = {e.L3:g} m) to hang above ground")
-        hint = ""
-        if key("theta") == "theta_deg" and -math.radians(90) < math.degrees(theta) < 0.0:
-            hint = (f"; theta_deg is in degrees (did you mean theta = {math.degrees(theta):g} "
-                    f"rad, i.e. theta_deg = {math.degrees(math.degrees(theta)):.4g}?)")
-        raise r.fail("start", key("theta"), f"{text('theta', theta)} puts the pivot only "
-                     f"{H:.3g} m above the trough (H = -L1 sin θ), too low for the "
-                     f"counterweight (L3 = {e.L3:g} m) to hang above ground{hint}")
-    if projectile == "none":
-        return
-    y_m = spigot_y + e.L4 * math.sin(phi)
-    if projectile == "sling":
-        if y_m < 0.0:
-            raise r.fail("start", key("phi"), f"{text('phi', phi)} puts the projectile "
-                         f"{-y_m:.3g} m below ground; raise the pivot with [engine] H")
-        return
-    if spigot_y > e.L4:
-        raise r.fail("engine", "L4", f"= {e.L4:g} m: the sling cannot reach the trough from the "
-                     f"spigot {spigot_y:.3g} m above it")
-    if abs(y_m) > 1e-6 * e.L4:
-        fit = -math.pi + math.asin(spigot_y / e.L4)
-        where = "below ground" if y_m < 0 else "above the trough"
-        raise r.fail("start", key("phi"), f"{text('phi', phi)} puts the projectile "
-                     f"{abs(y_m):.3g} m {where}; the sling lies in the trough at "
-                     f"phi_deg = {math.degrees(fit):.6g}")
-    if math.cos(phi) > 0.0:
-        raise r.fail("start", key("phi"), f"{text('phi', phi)}: the sling must point away "
-                     "from the throw (between -270° and -90°), under the beam")

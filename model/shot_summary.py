@@ -1,13 +1,16 @@
 """The figures of one shot without its table: release, range, peak loads, clearance.
 
 :func:`shot_figures` is the summary-only path of sweeps and of the optimiser
-(:mod:`trebuchet.model.design`): it integrates the shot with
-:func:`~trebuchet.model.simulate.integrate` and reduces the peaks from the integrator's own
-steps in compiled code (:mod:`trebuchet.model.summary_kernel`), with no DataFrame and no table
-of rows. The peaks are then the extrema over the continuous shot, located on the dense output
-to ~1e-6 s. Given an output step ``dt`` it instead evaluates every load on the rows of
-:func:`~trebuchet.model.simulate.simulate`'s table (the same functions, the same times) and
-takes their extrema, as a table of that step would show them.
+(:mod:`trebuchet.model.design`), with no DataFrame and no table of rows. Where the C engine
+runs, the shot, its events and the search of its peaks over the continuous shot are one call
+of the generated C (:func:`~trebuchet.model.c_peaks.design_peaks`; :func:`designs_figures` and
+:func:`designs_values` take many designs a call); elsewhere (no compiler, or a shot the C
+refuses) it integrates the shot with :func:`~trebuchet.model.simulate.integrate` and the
+numba kernel of :mod:`trebuchet.model.summary_kernel` searches the integrator's own steps,
+the same search. The peaks are then the extrema over the continuous shot, located on the
+dense output to ~1e-6 s. Given an output step ``dt`` it instead evaluates every load on the
+rows of :func:`~trebuchet.model.simulate.simulate`'s table (the same functions, the same
+times) and takes their extrema, as a table of that step would show them.
 
 Windows: the peaks cover the shot from the trigger to ``after_release`` s past the release
 (0.5 s by default, as ``simulate``); the counterweight's clearance covers it to
@@ -18,13 +21,14 @@ whole simulated swing).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from trebuchet.model import c_engine
 from trebuchet.model import kinematics as kin
+from trebuchet.model.c_peaks import DESIGN_NAMES, design_peaks
 from trebuchet.model.c_summary import summary_and_times
 from trebuchet.model.flight import flight_summary
 from trebuchet.model.forces import projectile_energy, rest_energies
@@ -44,7 +48,8 @@ from trebuchet.model.simulate import (
 )
 from trebuchet.model.summary_kernel import EXTREMA, reduce_phases
 
-__all__ = ["FIGURES", "CLEARANCE_WINDOW", "ShotFigures", "shot_figures", "throw_status",
+__all__ = ["FIGURES", "CLEARANCE_WINDOW", "ShotFigures", "shot_figures", "designs_figures",
+           "designs_values", "throw_status",
            "STATUS_OK", "STATUS_BACKWARD", "STATUS_GROUND"]
 
 #: s past the release over which ``cw_clearance`` is taken.
@@ -112,7 +117,8 @@ class ShotFigures:
 
     def as_dict(self) -> dict[str, float]:
         """The figures as ``{name: value}`` in the order of :data:`FIGURES`."""
-        return {k: float(getattr(self, k)) for k in FIGURES}
+        values = vars(self)
+        return {k: float(values[k]) for k in FIGURES}
 
     @property
     def status(self) -> str:
@@ -134,6 +140,16 @@ def throw_status(release_angle: float, range_: float) -> str:
     return STATUS_OK
 
 
+def _windows(scene: Scene, after_release: float | None) -> tuple[float, float]:
+    """s past the release over which the peaks are taken, and s of phase III integrated (at
+    least :data:`CLEARANCE_WINDOW`); a dry fire: its whole shot, both."""
+    if scene.projectile == "none":
+        after = DEFAULT_DRY_FIRE if after_release is None else after_release
+        return after, after
+    after = DEFAULT_AFTER_RELEASE if after_release is None else after_release
+    return after, max(after, CLEARANCE_WINDOW)
+
+
 def shot_figures(scene: Scene, *, rtol: float | str = "default",
                  after_release: float | None = None, dt: float | None = None) -> ShotFigures:
     """The figures of a shot of ``scene``, without a table.
@@ -153,49 +169,107 @@ def shot_figures(scene: Scene, *, rtol: float | str = "default",
     Raises TrebuchetInputError where :func:`simulate` would (a design the model refuses).
     """
     rtol = resolve_rtol(rtol)
-    if dt is not None and c_engine.available(quiet=True):  # the table's rows, reduced in C
-        figures, times = summary_and_times(scene, rtol=rtol, dt=dt, after_release=after_release)
-        return ShotFigures(**figures, times=times)
-    dry = scene.projectile == "none"
-    after = after_release if after_release is not None else (
-        DEFAULT_DRY_FIRE if dry else DEFAULT_AFTER_RELEASE)
-    traj = integrate(scene, rtol=rtol, after_release=after if dry else max(after,
-                                                                            CLEARANCE_WINDOW))
+    if c_engine.available(quiet=True):
+        if dt is not None:  # the table's rows, reduced in C
+            figures, times = summary_and_times(scene, rtol=rtol, dt=dt,
+                                               after_release=after_release)
+            return ShotFigures(**figures, times=times)
+        figures = designs_figures([scene], rtol=rtol, after_release=after_release)[0]
+        if figures is not None:
+            return figures
+    after, integrate_after = _windows(scene, after_release)  # the C refused (numba words it)
+    traj = integrate(scene, rtol=rtol, after_release=integrate_after)
     t_rel = traj.events.get("release")
     t_hi = traj.t_end if t_rel is None else t_rel + after
     t_clear = traj.t_end if t_rel is None else t_rel + CLEARANCE_WINDOW
     rest = rest_energies(scene)
-    e, g = scene.engine, scene.g
-    flight, em_release = None, rest[0]
+    em_release = 0.0
     if traj.release_state is not None:
         rs = traj.release_state
-        flight = flight_summary(rs, g, scene.flight, e.m)
-        em_release = projectile_energy((rs["vx"], rs["vy"]), rs["y"], e, g)
-    em_release -= rest[0]
+        em_release = projectile_energy((rs["vx"], rs["vy"]), rs["y"], scene.engine,
+                                       scene.g) - rest[0]
     if dt is None and all(isinstance(p.sol, KernelSolution | c_engine.CPhase)
                           for p in traj.phases):  # the steps, of the numba kernel or the C
-        values, times = reduce_phases(list(traj.phases), jit_engine(e), g, scene.start.H, rest,
-                                      em_release, t_hi, t_clear)
-        extrema = {name: (float(v), float(t)) for name, v, t in zip(EXTREMA, values, times,
-                                                                     strict=True)}
+        values, times = reduce_phases(list(traj.phases), jit_engine(scene.engine), scene.g,
+                                      scene.start.H, rest, em_release, t_hi, t_clear)
     else:
         extrema = _extrema_on_rows(traj, t_hi, t_clear, dt or 1e-3)
-    peaks = {name: sign * extrema[key][0] for name, (key, sign) in _FROM_EXTREMA.items()}
-    delta_u = scene.delta_U
-    lost = math.nan if t_rel is None else _lost_by(traj, t_rel)
-    nan = math.nan
-    return ShotFigures(
-        lift_off=traj.events.get("lift_off", nan), release_time=nan if t_rel is None else t_rel,
-        release_speed=flight["release_speed"] if flight else nan,
-        release_angle=flight["release_angle"] if flight else nan,
-        release_angle_deg=math.degrees(flight["release_angle"]) if flight else nan,
-        release_height=flight["release_height"] if flight else nan,
-        range=flight["range"] if flight else nan,
-        **{k: v if math.isfinite(v) else nan for k, v in peaks.items()},
-        energy_share=em_release / delta_u if flight else nan,
-        energy_drift_rel=extrema["energy_sum_abs"][0] / delta_u,
-        E_loss_release=lost, loss_share=100.0 * lost / delta_u,
-        times={name: extrema[key][1] for name, (key, _) in _FROM_EXTREMA.items()})
+        values, times = zip(*(extrema[name] for name in EXTREMA), strict=True)
+    figures, times = _figure_values(
+        scene, traj.events.get("lift_off", math.nan), math.nan if t_rel is None else t_rel,
+        traj.release_state, em_release, math.nan if t_rel is None else _lost_by(traj, t_rel),
+        values, times)
+    return ShotFigures(**figures, times=times)
+
+
+def designs_figures(scenes: Sequence[Scene], *, rtol: float | str = "default",
+                    after_release: float | None = None) -> list[ShotFigures | None]:
+    """The figures of each scene's shot over the continuous shot, as :func:`shot_figures`,
+    all in one call of the C engine (:func:`~trebuchet.model.c_peaks.design_peaks`); None
+    for a scene the C refuses (:func:`shot_figures` words the refusal). Raises
+    EngineUnavailable without the C."""
+    return [None if found is None else ShotFigures(**found[0], times=found[1])
+            for found in designs_values(scenes, rtol=rtol, after_release=after_release)]
+
+
+def designs_values(scenes: Sequence[Scene], *, rtol: float | str = "default",
+                   after_release: float | None = None
+                   ) -> list[tuple[dict[str, float], dict[str, float]] | None]:
+    """:func:`designs_figures` as ``(figures, times)`` dicts (:meth:`ShotFigures.as_dict`
+    and :attr:`ShotFigures.times`): a sweep's rows, without an object a design."""
+    rtol = resolve_rtol(rtol)
+    windows = [_windows(sc, after_release) for sc in scenes]
+    out, status = design_peaks(scenes, rtol, [w[0] for w in windows],
+                               [w[1] for w in windows], CLEARANCE_WINDOW)
+    found: list[tuple[dict[str, float], dict[str, float]] | None] = []
+    for sc, row, refused in zip(scenes, out.tolist(), status.tolist(), strict=True):
+        if refused:
+            found.append(None)
+            continue
+        t_rel = row[_T_RELEASE]
+        rs = None if math.isnan(t_rel) else dict(zip(_RELEASE_KEYS, row[_RELEASE], strict=True))
+        found.append(_figure_values(sc, row[_T_LIFT], t_rel, rs, row[_E_M_RELEASE],
+                                    row[_LOSS_RELEASE], row[:_N_EXTREMA],
+                                    row[_N_EXTREMA:_TIMES]))
+    return found
+
+
+_N_EXTREMA, _TIMES = len(EXTREMA), 2 * len(EXTREMA)
+_T_LIFT, _T_RELEASE, _E_M_RELEASE, _LOSS_RELEASE = (
+    DESIGN_NAMES.index(k) for k in ("t_lift", "t_release", "E_m_release", "loss_release"))
+_RELEASE = slice(DESIGN_NAMES.index("release_t"), DESIGN_NAMES.index("release_vy") + 1)
+_RELEASE_KEYS = ("t", "x", "y", "vx", "vy")
+#: Each peak figure, the index of its extremum in EXTREMA, and its sign.
+_PEAKS = tuple((name, EXTREMA.index(key), sign) for name, (key, sign) in _FROM_EXTREMA.items())
+_DRIFT = EXTREMA.index("energy_sum_abs")
+_NO_FLIGHT = dict.fromkeys(("release_speed", "release_angle", "release_angle_deg",
+                            "release_height", "range"), math.nan)
+
+
+def _figure_values(scene: Scene, t_lift: float, t_rel: float, release_state: dict | None,
+                   em_release: float, lost: float, values: Sequence[float],
+                   times: Sequence[float]) -> tuple[dict[str, float], dict[str, float]]:
+    """The :data:`FIGURES` (in order) and the time of each extremum, from the events (s, NaN:
+    none), the projectile's state at release (None: a dry fire), its energy over rest then
+    and the friction's heat by then (J), and the
+    :data:`~trebuchet.model.summary_kernel.EXTREMA` with their times (s)."""
+    nan, delta_u = math.nan, scene.delta_U
+    out = {"lift_off": t_lift, "release_time": t_rel}
+    if release_state is None:
+        out.update(_NO_FLIGHT)
+    else:
+        fl = flight_summary(release_state, scene.g, scene.flight, scene.engine.m)
+        out.update(release_speed=fl["release_speed"], release_angle=fl["release_angle"],
+                   release_angle_deg=math.degrees(fl["release_angle"]),
+                   release_height=fl["release_height"], range=fl["range"])
+    for name, i, sign in _PEAKS:
+        v = sign * values[i]
+        out[name] = v if math.isfinite(v) else nan
+    out["energy_share"] = nan if release_state is None else em_release / delta_u
+    out["energy_drift_rel"] = values[_DRIFT] / delta_u
+    out["cw_clearance"] = out.pop("cw_clearance")  # the order of FIGURES
+    out["E_loss_release"], out["loss_share"] = lost, 100.0 * lost / delta_u
+    return out, {name: float(times[i]) for name, i, _ in _PEAKS}
 
 
 def _lost_by(traj: Trajectory, t: float) -> float:

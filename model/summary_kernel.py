@@ -16,6 +16,11 @@ paper's engine the peaks then agree with a 1 µs table around them to all 15 dig
 
 The figures are therefore the extrema over the continuous shot, not over a table's rows: a
 row maximum at a 1 ms step lies below them by up to ~1e-5 of the peak.
+
+Where the C engine runs, the same search runs in C on the C's steps, in the same call as the
+shot (``fmu/c/treb_peaks.c``, :mod:`trebuchet.model.c_peaks`, with the settings of this
+module): this kernel is the path without a compiler, and for a shot the C refuses where the
+numba integrator does not.
 """
 
 from __future__ import annotations

@@ -9,8 +9,11 @@ its budget each keep their row and say why (:mod:`trebuchet.model.sweep_design`,
 builds each design's scene).
 
 Each design's figures come from the summary-only path
-(:func:`~trebuchet.model.shot_summary.shot_figures`): no table per design, the peaks reduced
-from the integrator's steps in compiled code.
+(:func:`~trebuchet.model.shot_summary.shot_figures`): no table per design, the shot and its
+peaks over the continuous shot in the generated C, a chunk of designs a call
+(:func:`~trebuchet.model.sweep_design.evaluate_designs`) where the designs run in this process
+or an executor's (a worker process of the sweep's own runs one design a call, so that it
+always knows which design it holds).
 
 Where designs run: local worker processes (:func:`~trebuchet.model.sweep_pool.run_pool`,
 one per core by default; a worker that dies costs the design it was running, and a design over
@@ -58,6 +61,7 @@ from trebuchet.model.sweep_design import (
     check_grid,
     design_scene,
     evaluate_design,
+    evaluate_designs,
     failed_row,
     grid_designs,
     output_step,
@@ -104,7 +108,7 @@ def _chunks(items: Sequence[Any], size: int) -> list[list[Any]]:
 
 def _evaluate_chunk(chunk: Sequence[tuple[int, Mapping[str, float]]], base: Scene,
                     options: SimulationOptions, outputs: Sequence[str]) -> list[dict[str, Any]]:
-    return [evaluate_design(base, item, options=options, outputs=outputs) for item in chunk]
+    return evaluate_designs(base, chunk, options=options, outputs=outputs)
 
 
 def _is_dask_client(obj: Any) -> bool:
@@ -146,9 +150,9 @@ class DesignRunner:
         items = list(items)
         if not items:
             return
-        if self.executor is None and self.workers == 1:
-            for item in items:
-                yield [self._evaluate(item)]
+        if self.executor is None and self.workers == 1:  # a chunk a call of the C engine
+            for chunk in _chunks(items, _chunk_size(len(items), 1)):
+                yield _evaluate_chunk(chunk, self.base, self.options, self.outputs)
         elif self.executor is None:
             if not self._warm:  # the compiled kernels, loaded once before workers fork
                 self._warm = True

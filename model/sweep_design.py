@@ -2,13 +2,8 @@
 
 A grid names scene keys as ``"section.key"`` (the keys of the scene file, e.g. ``"engine.M"``
 in kg, ``"release.velocity_angle_deg"`` in degrees) and lists values for each;
-:func:`grid_designs` is their cartesian product. :func:`design_scene` builds a design from the
-base scene's dict (``Scene.to_dict``) with the design's values put in, validated by
-``Scene.from_dict``. Quantities that the base scene leaves to their defaults follow the swept
-ones unless the grid names them: the moment of inertia ``I`` (uniform beam) follows ``m_b``,
-``L1`` and ``L2``; the pivot height ``H`` (spigot on the ground) follows ``L1`` and the start
-angle; the start sling angle ``phi`` keeps the projectile in the trough. Setting one release
-rule (``release.time`` or ``release.velocity_angle_deg``) replaces the base scene's rule.
+:func:`grid_designs` is their cartesian product; :func:`~trebuchet.model.sweep_scene.design_scene`
+builds a design's scene (the quantities that follow the swept ones: its module doc).
 
 :func:`evaluate_design` makes a design's row: its parameters, a ``status`` and an ``error``
 (the reason, empty when ok) and the figures of :data:`SUMMARY_COLUMNS`
@@ -33,7 +28,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
@@ -41,11 +36,11 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.model import c_engine
 from trebuchet.model import kinematics as kin
 from trebuchet.model.design_sizing import Sizing, sized
-from trebuchet.model.dynamics import trough_sling_angle
 from trebuchet.model.output_size import check_output_size
-from trebuchet.model.scene import SCENE_KEYS, Scene, default_moment_of_inertia
+from trebuchet.model.scene import SCENE_KEYS, Scene
 from trebuchet.model.settings import (
     MAX_DT,
     MEMORY_BUDGET,
@@ -59,15 +54,19 @@ from trebuchet.model.shot_summary import (
     STATUS_BACKWARD,
     STATUS_GROUND,
     STATUS_OK,
+    designs_values,
     shot_figures,
+    throw_status,
 )
 from trebuchet.model.simulate import resolve_rtol
+from trebuchet.model.sweep_scene import ANGLE_PAIRS, RELEASE_KEYS, design_scene
 
 __all__ = [
     "SUMMARY_COLUMNS", "STATUSES", "STATUS_OK", "STATUS_REFUSED", "STATUS_FAILED",
     "STATUS_OVER_BUDGET", "STATUS_BACKWARD", "STATUS_GROUND", "SimulationOptions",
     "output_step", "accuracy_option", "parse_grid_values", "parse_grid_option", "check_grid",
-    "grid_designs", "design_scene", "summarize", "evaluate_design", "failed_row", "Budget",
+    "grid_designs", "design_scene", "summarize", "evaluate_design", "evaluate_designs",
+    "failed_row", "Budget",
     "LOST", "keyed_arguments", "check_workers",
 ]
 
@@ -82,9 +81,6 @@ STATUSES = (STATUS_OK, STATUS_BACKWARD, STATUS_GROUND, STATUS_REFUSED, STATUS_FA
 #: sweep runs such designs again).
 LOST = "its worker process died"
 MAX_DESIGNS = 1_000_000  # designs of one sweep at most
-_RELEASE_KEYS = ("release.time", "release.velocity_angle_deg", "release.velocity_angle")
-_ANGLE_PAIRS = {"theta": "theta_deg", "psi": "psi_deg", "phi": "phi_deg",
-                "velocity_angle": "velocity_angle_deg"}
 
 
 @dataclass(frozen=True)
@@ -225,11 +221,11 @@ def check_grid(grid: Mapping[str, Iterable[float | str]]) -> dict[str, tuple[flo
                 raise TrebuchetInputError(f"grid key {key!r}: value {v!r} is not finite")
             clean.append(float(v))
         out[str(key)] = tuple(clean)
-    rel = [k for k in out if k in _RELEASE_KEYS]
+    rel = [k for k in out if k in RELEASE_KEYS]
     if len(rel) > 1:
         raise TrebuchetInputError(f"grid keys {rel[0]!r} and {rel[1]!r}: a scene has one "
                                   "release rule; sweep one of them")
-    for plain, deg in _ANGLE_PAIRS.items():
+    for plain, deg in ANGLE_PAIRS.items():
         for section in ("start", "release"):
             if f"{section}.{plain}" in out and f"{section}.{deg}" in out:
                 raise TrebuchetInputError(f"grid keys {section}.{plain!r} and {section}.{deg!r} "
@@ -251,51 +247,6 @@ def grid_designs(grid: Mapping[str, Sequence[float]]) -> list[dict[str, float]]:
 
 
 # --------------------------------------------------------------------------- one design
-
-
-def design_scene(base: Scene, params: Mapping[str, float | str],
-                 source: str | None = None) -> Scene:
-    """The base scene with the design's values put in (see the module doc for the quantities
-    that follow them), validated by ``Scene.from_dict``; raises TrebuchetInputError."""
-    data = base.to_dict()
-    e, s = base.engine, base.start
-    for key, value in params.items():
-        section, _, name = key.partition(".")
-        sec = data.setdefault(section, {})
-        if section == "release" and key in _RELEASE_KEYS:
-            sec.clear()
-        sec.pop(_ANGLE_PAIRS.get(name, ""), None)
-        sec.pop(next((p for p, d in _ANGLE_PAIRS.items() if d == name), ""), None)
-        sec[name] = value
-    eng = data["engine"]
-    if "engine.I" not in params and math.isclose(
-            e.I, default_moment_of_inertia(e.m_b, e.L1, e.L2), rel_tol=1e-12):
-        eng.pop("I")
-    if "engine.H" not in params and math.isclose(
-            s.H, -e.L1 * math.sin(s.theta), rel_tol=1e-12, abs_tol=1e-12 * e.L1):
-        eng.pop("H")
-    in_trough = params.get("start.projectile", getattr(base, "projectile", "trough")) == "trough"
-    if in_trough and not any(k in params for k in ("start.phi", "start.phi_deg")):
-        _put_projectile_in_trough(data, base)
-    return Scene.from_dict(data, source=source or base.source)
-
-
-def _put_projectile_in_trough(data: dict[str, Any], base: Scene) -> None:
-    """Set the start sling angle so the projectile lies in the trough, on the branch of the
-    base scene's angle; leave it alone where the design's numbers do not allow it (the
-    scene's validation then names the problem)."""
-    eng, st = data["engine"], data["start"]
-    try:
-        theta = (math.radians(st["theta_deg"]) if "theta_deg" in st else float(st["theta"]))
-        L1, L4 = float(eng["L1"]), float(eng["L4"])
-        H = float(eng["H"]) if "H" in eng else -L1 * math.sin(theta)
-        engine = replace(base.engine, L1=L1, L4=L4)
-        phi = trough_sling_angle(theta, engine, H, math)
-    except (ValueError, TypeError, KeyError, ZeroDivisionError):
-        return
-    phi += 2.0 * math.pi * round((base.start.phi - phi) / (2.0 * math.pi))
-    st.pop("phi", None)
-    st["phi_deg"] = math.degrees(phi)
 
 
 def summarize(run: pd.DataFrame, scene: Scene) -> dict[str, float]:
@@ -350,9 +301,9 @@ def failed_row(item: tuple[int, Mapping[str, Any]], status: str, error: str,
             **dict.fromkeys(outputs, math.nan)}
 
 
-def _throw_error(status: str, figures: Any) -> str:
+def _throw_error(status: str, figures: dict[str, float]) -> str:
     """The reason of a ``backward`` or ``ground`` row, in words."""
-    deg, range_ = figures.release_angle_deg, figures.range
+    deg, range_ = figures["release_angle_deg"], figures["range"]
     where = (f"lands {-range_:.3g} m behind the pivot" if range_ < 0 else
              f"lands {range_:.3g} m ahead of it")
     if status == STATUS_BACKWARD:
@@ -380,23 +331,68 @@ def evaluate_design(base: Scene, item: tuple[int, Mapping[str, float]], *,
                                options.sizing, partial(shot_figures, rtol=options.rtol,
                                                        after_release=options.after_release,
                                                        dt=options.dt))
-    except TrebuchetInputError as exc:
+    except Exception as exc:  # noqa: BLE001 - a sweep keeps every design, failures included
+        return _failure(item, exc, outputs)
+    return _design_row(item, scene, figures.as_dict(), options, outputs)
+
+
+def evaluate_designs(base: Scene, items: Sequence[tuple[int, Mapping[str, float]]], *,
+                     options: SimulationOptions = SimulationOptions(),
+                     outputs: Sequence[str] = tuple(SUMMARY_COLUMNS)) -> list[dict[str, Any]]:
+    """The rows of ``items`` as :func:`evaluate_design` makes them, the figures of them all
+    from one call of the C engine (:func:`~trebuchet.model.shot_summary.designs_values`)
+    where it runs and the options allow (no sizing rules, no output step); a design the C
+    refuses runs alone, which words the refusal."""
+    if options.sizing or options.dt is not None or not c_engine.available(quiet=True):
+        return [evaluate_design(base, item, options=options, outputs=outputs) for item in items]
+    rows: list[dict[str, Any] | None] = [None] * len(items)
+    built: list[tuple[int, Scene]] = []
+    for i, (index, params) in enumerate(items):
+        try:
+            built.append((i, design_scene(base, params, source=f"design {index}")))
+        except Exception as exc:  # noqa: BLE001 - as evaluate_design
+            rows[i] = _failure(items[i], exc, outputs)
+    try:
+        found = designs_values([scene for _, scene in built], rtol=options.rtol,
+                               after_release=options.after_release)
+    except Exception:  # noqa: BLE001 - each design alone then says what went wrong
+        found = [None] * len(built)
+    for (i, scene), values in zip(built, found, strict=True):
+        rows[i] = (evaluate_design(base, items[i], options=options, outputs=outputs)
+                   if values is None else _design_row(items[i], scene, values[0], options,
+                                                      outputs))
+    return rows  # type: ignore[return-value]
+
+
+def _failure(item: tuple[int, Mapping[str, Any]], exc: Exception,
+             outputs: Sequence[str]) -> dict[str, Any]:
+    """The row of a design that raised ``exc``: refused, over the memory budget or failed."""
+    if isinstance(exc, TrebuchetInputError):
         return failed_row(item, STATUS_REFUSED, str(exc), outputs)
-    except MemoryError:
+    if isinstance(exc, MemoryError):
         return failed_row(item, STATUS_OVER_BUDGET, "over the memory budget: an allocation "
                           "failed (MemoryError)", outputs)
-    except Exception as exc:  # noqa: BLE001 - a sweep keeps every design, failures included
-        return failed_row(item, STATUS_FAILED, f"{type(exc).__name__}: {exc}", outputs)
-    all_values = figures.as_dict()
-    values = {k: all_values[k] for k in outputs}
-    row: dict[str, Any] = {"design": index, **params, **_sized_values(scene, options),
-                           "status": STATUS_OK, "error": ""}
-    bad = [k for k, v in values.items() if not math.isfinite(v)]
-    status = figures.status
-    if bad:
-        row.update(status=STATUS_FAILED, error="non-finite output: " + ", ".join(bad))
-    elif status != STATUS_OK:
-        row.update(status=status, error=_throw_error(status, figures))
-    return {**row, **values}
+    return failed_row(item, STATUS_FAILED, f"{type(exc).__name__}: {exc}", outputs)
 
 
+def _design_row(item: tuple[int, Mapping[str, Any]], scene: Scene, figures: dict[str, float],
+                options: SimulationOptions, outputs: Sequence[str]) -> dict[str, Any]:
+    """The row of a design with its figures (:meth:`ShotFigures.as_dict`): ``ok``,
+    ``backward``, ``ground``, or ``failed`` where an output is not finite."""
+    index, params = item
+    values = figures if outputs == _ALL else {k: figures[k] for k in outputs}
+    row: dict[str, Any] = {"design": index, **params}
+    if options.sizing:
+        row.update(_sized_values(scene, options))
+    status, error = STATUS_OK, ""
+    if not all(map(math.isfinite, values.values())):
+        bad = [k for k, v in values.items() if not math.isfinite(v)]
+        status, error = STATUS_FAILED, "non-finite output: " + ", ".join(bad)
+    elif (thrown := throw_status(figures["release_angle"], figures["range"])) != STATUS_OK:
+        status, error = thrown, _throw_error(thrown, figures)
+    row["status"], row["error"] = status, error
+    row.update(values)
+    return row
+
+
+_ALL = tuple(SUMMARY_COLUMNS)

@@ -119,9 +119,9 @@ def test_journal_resume_runs_only_the_rest(tmp_path, horsdal, serial, monkeypatc
     with open(log, "a") as f:
         f.write("4,17000.0,35.0,ok,,0.3")  # a line cut short
     ran = []
-    real = sweep_module.evaluate_design
-    monkeypatch.setattr(sweep_module, "evaluate_design",
-                        lambda base, item, **kw: ran.append(item[0]) or real(base, item, **kw))
+    real = sweep_module.evaluate_designs
+    monkeypatch.setattr(sweep_module, "evaluate_designs", lambda base, items, **kw: ran.extend(
+        i for i, _ in items) or real(base, items, **kw))
     with pytest.raises(TrebuchetInputError, match="--resume"):
         sweep(horsdal, GRID, workers=1, progress=False, options=FAST, journal=log)
     table = sweep(horsdal, GRID, workers=1, progress=False, options=FAST, journal=log,
@@ -254,15 +254,15 @@ def test_dask_workers_gone_mid_sweep_keeps_what_finished(horsdal, monkeypatch):
 
     distributed = pytest.importorskip("dask.distributed")
     started = threading.Event()
-    real = sweep_module.evaluate_design
+    real = sweep_module.evaluate_designs
 
-    def slow(base, item, **kwargs):
-        if item[0] >= 2:
+    def slow(base, items, **kwargs):
+        if any(index >= 2 for index, _ in items):
             started.set()
             time.sleep(0.5)
-        return real(base, item, **kwargs)
+        return real(base, items, **kwargs)
 
-    monkeypatch.setattr(sweep_module, "evaluate_design", slow)
+    monkeypatch.setattr(sweep_module, "evaluate_designs", slow)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
@@ -301,14 +301,14 @@ def test_dask_design_over_its_time_budget(horsdal, monkeypatch):
     """On a cluster a design over its time budget is flagged and its chunk cancelled; the
     sweep ends without waiting for it."""
     distributed = pytest.importorskip("dask.distributed")
-    _sabotage_threads = sweep_module.evaluate_design
+    _sabotage_threads = sweep_module.evaluate_designs
 
-    def slow(base, item, **kwargs):
-        if item[0] == 7:
+    def slow(base, items, **kwargs):
+        if any(index == 7 for index, _ in items):
             time.sleep(5.0)
-        return _sabotage_threads(base, item, **kwargs)
+        return _sabotage_threads(base, items, **kwargs)
 
-    monkeypatch.setattr(sweep_module, "evaluate_design", slow)
+    monkeypatch.setattr(sweep_module, "evaluate_designs", slow)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:

@@ -67,8 +67,8 @@ int treb_engine_start(TrebShot *s, const double *q, const int *flags, const doub
     sc.rtol = par[TREB_PAR_RTOL];
     sc.bounded = 1;
     sc.after_release = par[TREB_PAR_AFTER_RELEASE];
-    treb_scene_rest(&sc);  /* the drag constant */
-    memcpy(sc.rest, par + TREB_PAR_REST, sizeof sc.rest);
+    treb_scene_rest(&sc);  /* the drag constant; the energies at rest where par has NaN */
+    if (!isnan(par[TREB_PAR_REST])) memcpy(sc.rest, par + TREB_PAR_REST, sizeof sc.rest);
     int r = treb_shot_start(s, &sc, msg);
     if (r) return r;
     double y[TREB_MAXN];
@@ -132,10 +132,10 @@ void treb_engine_steps(const TrebShot *s, int k, double *T, double *H, double *Y
     }
 }
 
-/* Every row column (TREB_ROW_*) of the state y of phase kind into row. */
-static void row_of(const TrebScene *sc, int kind, const double *y, double *row)
+/* The inputs x (TREB_ENGINE_INPUTS numbers) of the row formulas of the state y of phase kind;
+ * returns the formulas' index of the phase (I, II, III, III of a dry fire). */
+int treb_engine_inputs(const TrebScene *sc, int kind, const double *y, double *x)
 {
-    double x[TREB_MAXN + 5];
     int n = treb_state_size(sc, kind);
     memcpy(x, y, n * sizeof(double));
     if (sc->friction) {  /* the state, its lost energies, the couples' Q */
@@ -143,7 +143,14 @@ static void row_of(const TrebScene *sc, int kind, const double *y, double *row)
         n += 2;
     }
     memcpy(x + n, sc->rest, 3 * sizeof(double));
-    int k = kind == 3 && sc->projectile == 3 ? 3 : kind - 1;
+    return kind == 3 && sc->projectile == 3 ? 3 : kind - 1;
+}
+
+/* Every row column (TREB_ROW_*) of the state y of phase kind into row. */
+void treb_engine_row(const TrebScene *sc, int kind, const double *y, double *row)
+{
+    double x[TREB_ENGINE_INPUTS];
+    int k = treb_engine_inputs(sc, kind, y, x);
     ROWS[sc->friction != 0][sc->fixed != 0][k](sc->q, x, row);
 }
 
@@ -209,7 +216,7 @@ int treb_engine_rows(TrebShot *s, const double *t, long n, const long *dest, lon
         int k = treb_shot_state(s, -1, t[m], y, msg);
         if (k < 0) return k;
         int kind = s->phase[k];
-        row_of(&s->sc, kind, y, row);
+        treb_engine_row(&s->sc, kind, y, row);
         flight_of(s, kind, t[m], row);
         phase[m] = kind;
         if (dest_t >= 0) out[dest_t * n + m] = t[m];
@@ -349,7 +356,7 @@ int treb_engine_summary(TrebShot *s, double dt, double t_clear, double *out, lon
         int k = treb_shot_state(s, -1, t, y, msg);
         if (k < 0) return k;
         int kind = s->phase[k];
-        row_of(&s->sc, kind, y, row);
+        treb_engine_row(&s->sc, kind, y, row);
         flight_of(s, kind, t, row);
         if (bad[0] < 0 && !row_finite(&s->sc, kind, row)) {
             bad[0] = 0;

@@ -13,7 +13,8 @@
 enum { TREB_FLAG_FIXED, TREB_FLAG_PROJECTILE /* 1 trough, 2 sling, 3 none */, TREB_FLAG_DRAG,
        TREB_FLAG_FRICTION, TREB_FLAG_HAS_TIME, TREB_FLAG_HAS_ANGLE, TREB_N_FLAGS };
 /* par[]: start pose (rad), release rules (s, rad), drag (m, 1, kg/m3), tolerance, phase III
- * (s), the energies at rest of projectile, counterweight and beam (J, forces.rest_energies) */
+ * (s), the energies at rest of projectile, counterweight and beam (J, forces.rest_energies;
+ * NaN: the generated treb_rest_energies, the same formula) */
 enum { TREB_PAR_THETA, TREB_PAR_PSI, TREB_PAR_PHI, TREB_PAR_T_RELEASE, TREB_PAR_ANGLE,
        TREB_PAR_DIAMETER, TREB_PAR_DRAG_COEFFICIENT, TREB_PAR_AIR_DENSITY, TREB_PAR_RTOL,
        TREB_PAR_AFTER_RELEASE, TREB_PAR_REST, TREB_N_PARS = TREB_PAR_REST + 3 };
@@ -38,6 +39,9 @@ long treb_engine_step_count(const TrebShot *s, int k);
 void treb_engine_steps(const TrebShot *s, int k, double *T, double *H, double *Y, double *F);
 int treb_engine_rows(TrebShot *s, const double *t, long n, const long *dest, long dest_t,
                      double *out, long *phase, long *bad, char *msg);
+#define TREB_ENGINE_INPUTS (TREB_MAXN + 5)
+int treb_engine_inputs(const TrebScene *sc, int kind, const double *y, double *x);
+void treb_engine_row(const TrebScene *sc, int kind, const double *y, double *row);
 int treb_engine_summary(TrebShot *s, double dt, double t_clear, double *out, long *bad,
                         char *msg);
 
