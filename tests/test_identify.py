@@ -203,6 +203,29 @@ def test_the_fitted_engine_keeps_a_short_peak_the_smoother_flattens(small_fast):
     assert set(fit.columns) == set(smooth.columns)
 
 
+def test_the_fitted_loads_by_chunks_of_rows_change_no_row(small_fast, heavier_shot,
+                                                          monkeypatch):
+    """Issue 25's memory: the loads of the fitted engine, their sd and the band's gradients
+    taken a few rows at a time (the rows in flight with the last row in the sling; the
+    bearings' heat, an integral over the rows, on the whole log) are the whole log's to the
+    last bit."""
+    from trebuchet.ingest.identification import fitted_loads
+
+    _, log, _ = heavier_shot
+    monkeypatch.setattr(fitted_loads, "chunk_rows", lambda n: n)
+    whole = _quiet(reconstruct, log, small_fast)
+    monkeypatch.setattr(fitted_loads, "chunk_rows", lambda n: 37)
+    chunked = _quiet(reconstruct, log, small_fast)
+    assert whole.attrs["reconstruction"].method == "fit"
+    assert (whole["phase"] == 3).sum() > 37 and whole["E_loss_pivot"].iloc[-1] > 0
+    for c in whole.columns:
+        np.testing.assert_array_equal(whole[c].to_numpy(), chunked[c].to_numpy(), err_msg=c)
+    a, b = (r.attrs["reconstruction"].identification.band for r in (whole, chunked))
+    for c, g in a.gradients.items():
+        np.testing.assert_array_equal(g, b.gradients[c], err_msg=c)
+        np.testing.assert_array_equal(a.other_sd[c], b.other_sd[c], err_msg=c)
+
+
 def test_a_fit_that_fails_its_check_leaves_the_smoothers_loads_and_says_why(small_fast):
     log, _ = simulated_log(small_fast, 240, 0.3, seed=3)
     frictionless = replace(small_fast, engine=replace(small_fast.engine, friction=None))
