@@ -307,18 +307,19 @@ def _loads(log: pd.DataFrame, t: np.ndarray, z: np.ndarray, scene: Scene,
     del var_fit
     np.sqrt(np.add(sd, ev_var, out=sd), out=sd)
     advice = _advice(ident, t, phase, prop, ev_var, resolution_fraction, lines)
-    del ev_var
+    value = prop.value
+    del ev_var, prop  # and the variance by order with it, before the frame's block
     out: dict[str, np.ndarray] = {"t": t, "t_shot": t - t0, "phase": phase}
     for c in STATE_COLUMNS:
         out[c] = state[c]
     for c, j in col.items():
-        out[c] = prop.value[:, j]
+        out[c] = value[:, j]
     for k, c in enumerate(STATE_COLUMNS):
         out[c + "_sd"] = np.sqrt(smoothed_sd[c] ** 2 + var_state[:, k])
     for c, j in col.items():
         out[c + "_sd"] = sd[:, j]
     result = frame(out, index=log.index)
-    del out, state, prop, sd
+    del out, state, value, sd
     ident = replace(ident, band=LoadBand(
         gradients={c: G[k] for k, c in enumerate(band)},
         covariance=np.nan_to_num(fit.covariance, posinf=0.0), other_sd=other))
