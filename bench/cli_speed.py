@@ -7,7 +7,7 @@
   loaded and its kernels compiled: the difference is the start-up (imports, numba's cache
   loading), given as its share of the whole;
 * writing the loads of a 2 s log at 1000 fps (2000 rows, 105 columns) as CSV: pandas'
-  ``to_csv`` (what the command used), :func:`trebuchet.csv_table.write_table` (what it
+  ``to_csv`` (what the command used), :func:`trebuchet.core.csv_table.write_table` (what it
   uses now: the same bytes, checked) and ``np.savetxt`` at 17 digits (not the same text: the
   issue's yardstick), each also as a share of the ``reconstruct`` call that made the table.
 
@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.cli import main
-from trebuchet.csv_table import csv_text, write_table
+from trebuchet.core.csv_table import csv_text, write_table
 from trebuchet.ingest.reconstruct import reconstruct
 from trebuchet.ingest.synthetic.simulated_log import simulated_log
 from trebuchet.model.scene import Scene

@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from bench.model_speed import plain_shot
-from trebuchet.errors import ModelValidityWarning
+from trebuchet.core.errors import ModelValidityWarning
 from trebuchet.model import c_engine
 from trebuchet.model.c_summary import shot_summary
 from trebuchet.model.scene import Scene

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning
+from trebuchet.core.errors import ModelValidityWarning
 from trebuchet.ingest.identification.identify import identify
 from trebuchet.ingest.reconstruct import reconstruct
 from trebuchet.ingest.synthetic.simulated_log import simulated_log

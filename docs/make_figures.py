@@ -18,9 +18,9 @@ import tempfile
 import warnings
 from pathlib import Path
 
+from trebuchet.core.output import atomic_path
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
-from trebuchet.output import atomic_path
 from trebuchet.report.figures import all_figures
 
 ROOT = Path(__file__).resolve().parents[1]

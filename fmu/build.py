@@ -18,10 +18,10 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.output import atomic_path
 from trebuchet.fmu.csources import C_SOURCES, write_sources
 from trebuchet.fmu.model_description import MODEL_NAME, model_description
-from trebuchet.output import atomic_path
 
 __all__ = ["build_fmu", "fmi_headers", "compile_binary", "MODEL_NAME", "CFLAGS"]
 

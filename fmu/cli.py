@@ -35,9 +35,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _build(args: argparse.Namespace) -> int:
+    from trebuchet.core.output import check_target
     from trebuchet.fmu.build import build_fmu, fmi_headers
     from trebuchet.fmu.csources import GLUE_DIR, GLUE_FILES
-    from trebuchet.output import check_target
 
     check_target(args.output,  # not over a file the build reads
                  inputs=[*fmi_headers(args.fmi), *(GLUE_DIR / name for name in GLUE_FILES)])
@@ -47,8 +47,8 @@ def _build(args: argparse.Namespace) -> int:
 
 
 def _crosscheck(args: argparse.Namespace) -> int:
+    from trebuchet.core.output import check_target
     from trebuchet.fmu.crosscheck import write_crosscheck
-    from trebuchet.output import check_target
 
     check_target(args.output, folder=True, inputs=[args.fmu])
     folder = write_crosscheck(args.fmu, args.output)

@@ -17,12 +17,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.output import atomic_dir
+from trebuchet.core.version import __version__
 from trebuchet.fmu.interface import OUTPUT_NAMES, PARAMETERS, scene_from_parameters
 from trebuchet.fmu.model_description import MODEL_NAME
 from trebuchet.model.simulate import DEFAULT_AFTER_RELEASE, simulate
-from trebuchet.output import atomic_dir
-from trebuchet.version import __version__
 
 __all__ = ["reference", "write_crosscheck", "after_release_for", "START_TIME", "STOP_TIME",
            "STEP_SIZE", "COMMAND_TIME", "REL_TOL"]

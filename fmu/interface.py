@@ -246,7 +246,7 @@ def scene_from_parameters(values: Mapping[str, float | str],
     ``release.velocity_angle_deg`` at 0 mean "not given"; at least one release rule must be
     given, and with both the release comes at whichever is reached first.
 
-    Raises :class:`~trebuchet.errors.TrebuchetInputError` with the scene's message.
+    Raises :class:`~trebuchet.core.errors.TrebuchetInputError` with the scene's message.
     """
     has_time = float(values["release.time"]) != 0.0
     has_angle = float(values["release.velocity_angle_deg"]) != 0.0

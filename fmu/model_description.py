@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from xml.etree import ElementTree as ET
 
+from trebuchet.core.version import __version__
 from trebuchet.fmu.interface import DISPLAY_UNITS, UNITS, VARIABLES, Variable
-from trebuchet.version import __version__
 
 __all__ = ["model_description", "STATES", "MODEL_NAME", "N_EVENT_INDICATORS"]
 

@@ -13,7 +13,7 @@ import sys
 import warnings
 from typing import TYPE_CHECKING
 
-from trebuchet.errors import TrebuchetInputError, cli_command, command_line
+from trebuchet.core.errors import TrebuchetInputError, cli_command, command_line
 from trebuchet.ingest.settings import FORMS, IMAGE_CALIBRATIONS, METHODS, TROUGH
 from trebuchet.model.units import UNITS_HELP
 
@@ -279,10 +279,10 @@ def forces_summary(result: pd.DataFrame, output: str | None = None) -> str:
 
 @cli_command
 def _forces(args: argparse.Namespace) -> int:
-    from trebuchet.csv_table import write_table
+    from trebuchet.core.csv_table import write_table
+    from trebuchet.core.output import check_target
     from trebuchet.ingest.reconstruct import reconstruct
     from trebuchet.model.units import column_units
-    from trebuchet.output import check_target
 
     inputs = [args.log, args.scene, args.calibration]
     check_target(args.output, inputs=inputs)

@@ -12,7 +12,7 @@ import argparse
 import sys
 import warnings
 
-from trebuchet.errors import cli_command
+from trebuchet.core.errors import cli_command
 from trebuchet.ingest.cli import (
     add_event_arguments,
     add_image_calibration_argument,
@@ -57,14 +57,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _identify(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from trebuchet.csv_table import write_table
+    from trebuchet.core.csv_table import write_table
+    from trebuchet.core.output import check_target
     from trebuchet.ingest.identification.identify import identify
     from trebuchet.ingest.identification.report import (
         summary_text,
         table_for_csv,
         write_fitted_scene,
     )
-    from trebuchet.output import check_target
 
     inputs = [args.log, args.scene, args.calibration]
     check_target(args.output, inputs=inputs)

@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.advisory import Advisory
 
 
@@ -61,6 +61,9 @@ class Reconstruction:
         The engine identified from the log
         (:class:`~trebuchet.ingest.identification.result.Identification`) where a fit ran,
         else None (with ``method="smooth"`` it failed its check, or was not asked for).
+    event_warnings:
+        Sentences about events whose sources disagree (also in ``notes``), for
+        :func:`~trebuchet.ingest.reconstruct.reconstruct` to warn.
     """
 
     events: Mapping[str, float | None]
@@ -77,6 +80,7 @@ class Reconstruction:
     notes: tuple[str, ...] = ()
     method: str = "smooth"
     identification: Any = None
+    event_warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -84,7 +88,7 @@ class Reconstruction:
             set_(self, name, MappingProxyType(dict(getattr(self, name))))
         set_(self, "noise", MappingProxyType(
             {a: MappingProxyType(dict(v)) for a, v in self.noise.items()}))
-        for name in ("advisories", "validity", "notes"):
+        for name in ("advisories", "validity", "notes", "event_warnings"):
             set_(self, name, tuple(getattr(self, name)))
 
     def __deepcopy__(self, memo: dict) -> Reconstruction:
@@ -98,7 +102,8 @@ class Reconstruction:
         return (_rebuild, (dict(self.events), dict(self.event_sd), dict(self.event_sources),
                            {a: dict(v) for a, v in self.noise.items()}, self.form,
                            self.trough, self.model, self.preset, self.fps, self.advisories,
-                           self.validity, self.notes, self.method, self.identification))
+                           self.validity, self.notes, self.method, self.identification,
+                           self.event_warnings))
 
 
 def _rebuild(*fields) -> Reconstruction:

@@ -1,6 +1,6 @@
 """Do the measured angles fit the scene's geometry and the model's assumptions?
 
-Checks on the reconstructed rows, each a :class:`~trebuchet.errors.ModelValidityWarning`
+Checks on the reconstructed rows, each a :class:`~trebuchet.core.errors.ModelValidityWarning`
 (also listed in ``Reconstruction.validity``) that names the rows (0-based positions in the log)
 and their times (s, the log's time):
 
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trebuchet.errors import ModelValidityWarning, warn_at_caller
+from trebuchet.core.errors import ModelValidityWarning, warn_at_caller
 from trebuchet.model import kinematics as kin
 from trebuchet.model.scene import Scene
 

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import ndtr
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.frames import frame
 from trebuchet.model.loads import load_columns

@@ -4,7 +4,7 @@ A camera file (OpenCV's camera matrix and distortion) fixes the lens, and
 :func:`~trebuchet.ingest.logs.read_log.read_log` has already taken the lens out of the
 tracked pixels; it does not fix where the engine's plane stands before the camera. With the
 scene known, :func:`posed_log` finds that too, from the engine's own geometry
-(:func:`~trebuchet.ingest.geometry.user_calibration.plane_from_engine`: the ties L1, L2, L3,
+(:func:`~trebuchet.ingest.geometry.plane_pose.plane_from_engine`: the ties L1, L2, L3,
 L4 kept at their lengths and the beam straight fix the plane's tilt, the counterweight
 hanging plumb at rest its roll), takes every tracked point to the plane and takes the
 angles from two points each as ``read_log`` does
@@ -20,9 +20,10 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.ingest.calibrated_angles import point_tracks
+from trebuchet.ingest.geometry.plane_pose import plane_from_engine
 from trebuchet.ingest.geometry.points import point_angles
 from trebuchet.ingest.geometry.shot_frames import rest_frames
-from trebuchet.ingest.geometry.user_calibration import UserCalibration, plane_from_engine
+from trebuchet.ingest.geometry.user_calibration import UserCalibration
 from trebuchet.model.scene import Scene
 
 __all__ = ["posed_log"]

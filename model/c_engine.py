@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import dynamics, flight, forces, friction, kinematics, phase_events, scene
 from trebuchet.model.flight import projectile_in_flight
 from trebuchet.model.forces import FRICTION_COLUMNS, ROW_COLUMNS, projectile_energy

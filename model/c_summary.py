@@ -10,7 +10,7 @@ bearings' friction has made by the release (``E_loss_release``, J, and ``loss_sh
 0 without friction): the figures of ``shot_summary.FIGURES``, whose ``shot_figures`` takes
 them from here when asked for an output step.
 
-A design the model refuses raises the :class:`~trebuchet.errors.TrebuchetInputError` that
+A design the model refuses raises the :class:`~trebuchet.core.errors.TrebuchetInputError` that
 ``simulate`` raises (the numba kernel words it, as ``simulate`` does); without a C compiler
 :class:`~trebuchet.model.c_engine.EngineUnavailable` is raised (the caller's own path, such as
 ``sweep.summarize(simulate(...))``, gives the same figures).

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from trebuchet.errors import cli_command
+from trebuchet.core.errors import cli_command
 from trebuchet.model.output_size import MAX_AFTER_RELEASE
 from trebuchet.model.settings import (
     DEFAULT_AFTER_RELEASE,
@@ -47,11 +47,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _simulate(args: argparse.Namespace) -> int:
-    from trebuchet.csv_table import write_table
+    from trebuchet.core.csv_table import write_table
+    from trebuchet.core.output import check_target
     from trebuchet.model.scene import Scene
     from trebuchet.model.simulate import simulate
     from trebuchet.model.units import column_units
-    from trebuchet.output import check_target
 
     check_target(args.output, inputs=[args.scene])
     scene = Scene.from_toml(args.scene)
@@ -91,10 +91,10 @@ def format_paper_table(table, markdown: bool = False) -> str:
 
 @cli_command
 def _paper(args: argparse.Namespace) -> int:
-    from trebuchet.csv_table import write_table
+    from trebuchet.core.csv_table import write_table
+    from trebuchet.core.output import check_target
     from trebuchet.model.paper import horsdal_scene_path, paper_comparison
     from trebuchet.model.scene import Scene
-    from trebuchet.output import check_target
 
     if args.output:
         check_target(args.output, inputs=[args.scene])

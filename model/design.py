@@ -35,7 +35,7 @@ from typing import Any
 import pandas as pd
 from tqdm.auto import tqdm
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.model.design_problem import Limit, make_problem
 from trebuchet.model.design_search import Evaluator, SearchOptions, search
 from trebuchet.model.design_sizing import Sizing, read_scene, sized

@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from trebuchet.errors import TrebuchetInputError, cli_command
+from trebuchet.core.errors import TrebuchetInputError, cli_command
 from trebuchet.model.settings import (
     ACCURACY,
     DESIGN_GENERATIONS,
@@ -83,13 +83,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _design(args: argparse.Namespace) -> int:
+    from trebuchet.core.output import check_target
     from trebuchet.model.design import design
     from trebuchet.model.design_output import plot_trade, summary_table, write_best
     from trebuchet.model.design_problem import parse_vary
     from trebuchet.model.design_search import SearchOptions
     from trebuchet.model.sweep import Budget, SimulationOptions
     from trebuchet.model.sweep_design import check_workers, keyed_arguments
-    from trebuchet.output import check_target
 
     vary = keyed_arguments(args.vary, parse_vary, "--vary")
     check_workers(args.workers)

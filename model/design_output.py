@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from trebuchet.core.output import atomic_path
 from trebuchet.model.design import DesignResult, figure_unit
 from trebuchet.model.scene import Scene, default_moment_of_inertia
-from trebuchet.output import atomic_path
 
 __all__ = ["scene_toml", "comment_block", "summary_table", "write_best", "plot_trade",
            "pareto_front"]

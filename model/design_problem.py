@@ -11,7 +11,7 @@ in SI units. On the command line::
     --maximize range | --minimize F_R_peak
 
 Each parse or check refuses what it cannot use in one line that names it
-(:class:`~trebuchet.errors.TrebuchetInputError`).
+(:class:`~trebuchet.core.errors.TrebuchetInputError`).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.scene import Scene
 from trebuchet.model.shot_summary import FIGURES
 from trebuchet.model.sweep import check_grid

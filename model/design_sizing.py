@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.scene import Scene
 from trebuchet.model.shot_summary import ShotFigures
 

@@ -14,7 +14,7 @@ import math
 import numbers
 from dataclasses import dataclass
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 
 __all__ = ["Engine", "Friction", "Start", "Release", "Flight", "default_moment_of_inertia",
            "DEFAULT_SMOOTHING_RATE"]

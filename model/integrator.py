@@ -38,12 +38,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from functools import cache
 from typing import Any
 
 import numpy as np
 
-from trebuchet.model.dop853_tableau import DOP853 as _dop
+from trebuchet.model.dop853_kernels import N_STAGES as _NS
+from trebuchet.model.dop853_kernels import DenseSolution
+from trebuchet.model.dop853_kernels import kernels as _kernels
 
 __all__ = ["solve", "RKResult", "DenseSolution", "ORDER", "DENSE_ORDER"]
 
@@ -56,216 +57,12 @@ MIN_FACTOR = 0.2
 MAX_FACTOR = 10.0
 _ERROR_EXPONENT = -1.0 / (ERROR_ORDER + 1)
 
-_NS = _dop.N_STAGES  # 12 stages per step; K[12] holds f(t+h, y_new) (first same as last)
-_NX = _dop.N_STAGES_EXTENDED  # 16: three extra stages for the dense output
-_NP = _dop.INTERPOLATOR_POWER  # 7 interpolation coefficients per component
 
 MESSAGES = {
     0: "The solver successfully reached the end of the integration interval.",
     1: "A termination event occurred.",
     -1: "Required step size is less than spacing between numbers.",
 }
-
-
-# ---------------------------------------------------------------------------------------------
-# Code generation: one step, the dense coefficients of a step, and a one-point interpolation,
-# as straight-line Python over float locals for a given state dimension n.
-
-def _lin(terms: list[tuple[float, str]]) -> str:
-    """``c1*x1 + c2*x2 + ...`` skipping zero coefficients (``0.0`` if none)."""
-    parts = [f"{float(c)!r}*{x}" for c, x in terms if c != 0.0]
-    return " + ".join(parts) if parts else "0.0"
-
-
-def _step_source(n: int) -> str:
-    A, B, C, E3, E5 = _dop.A, _dop.B, _dop.C, _dop.E3, _dop.E5
-    r = range(n)
-    k = [[f"k{s}_{i}" for i in r] for s in range(_NX)]
-    lines = ["def step(fun, t, h, y, f, rtol, atol):"]
-    lines.append(f"    {', '.join(f'y_{i}' for i in r)}, = y")
-    lines.append(f"    {', '.join(k[0])}, = f")
-    lines.append(f"    {', '.join(f'a_{i}' for i in r)}, = atol")
-    for s in range(1, _NS):
-        args = ", ".join(f"y_{i} + h*({_lin([(A[s, j], k[j][i]) for j in range(s)])})"
-                         for i in r)
-        lines.append(f"    {', '.join(k[s])}, = fun(t + {float(C[s])!r}*h, [{args}])")
-    for i in r:
-        lines.append(f"    u_{i} = y_{i} + h*({_lin([(B[j], k[j][i]) for j in range(_NS)])})")
-    lines.append(f"    yn = [{', '.join(f'u_{i}' for i in r)}]")
-    lines.append("    fn = fun(t + h, yn)")
-    lines.append(f"    {', '.join(k[_NS])}, = fn")
-    lines.append("    s5 = 0.0")
-    lines.append("    s3 = 0.0")
-    for i in r:
-        lines.append(f"    d = a_{i} + rtol*max(abs(y_{i}), abs(u_{i}))")
-        lines.append(f"    e = ({_lin([(E5[j], k[j][i]) for j in range(_NS + 1)])})/d")
-        lines.append("    s5 += e*e")
-        lines.append(f"    e = ({_lin([(E3[j], k[j][i]) for j in range(_NS + 1)])})/d")
-        lines.append("    s3 += e*e")
-    lines.append("    if s5 == 0.0 and s3 == 0.0:")
-    lines.append("        err = 0.0")
-    lines.append("    else:")
-    lines.append(f"        err = abs(h)*s5/sqrt((s5 + 0.01*s3)*{n})")
-    flat = ", ".join(k[s][i] for s in range(_NS + 1) for i in r)
-    lines.append(f"    return yn, fn, err, ({flat},)")
-    return "\n".join(lines) + "\n"
-
-
-def _dense_source(n: int) -> str:
-    A, C, D = _dop.A, _dop.C, _dop.D
-    r = range(n)
-    k = [[f"k{s}_{i}" for i in r] for s in range(_NX)]
-    lines = ["def dense(fun, t, h, y, yn, K):"]
-    lines.append(f"    {', '.join(f'y_{i}' for i in r)}, = y")
-    lines.append(f"    {', '.join(f'u_{i}' for i in r)}, = yn")
-    lines.append(f"    {', '.join(k[s][i] for s in range(_NS + 1) for i in r)}, = K")
-    for s in range(_NS + 1, _NX):
-        args = ", ".join(f"y_{i} + h*({_lin([(A[s, j], k[j][i]) for j in range(s)])})"
-                         for i in r)
-        lines.append(f"    {', '.join(k[s])}, = fun(t + {float(C[s])!r}*h, [{args}])")
-    rows: list[str] = []
-    for i in r:
-        lines.append(f"    dy_{i} = u_{i} - y_{i}")
-    rows.append(", ".join(f"dy_{i}" for i in r))
-    rows.append(", ".join(f"h*{k[0][i]} - dy_{i}" for i in r))
-    rows.append(", ".join(f"2.0*dy_{i} - h*({k[_NS][i]} + {k[0][i]})" for i in r))
-    for p in range(_NP - 3):
-        rows.append(", ".join(f"h*({_lin([(D[p, j], k[j][i]) for j in range(_NX)])})"
-                              for i in r))
-    lines.append(f"    return ({', '.join(rows)},)")
-    return "\n".join(lines) + "\n"
-
-
-def _interp_source(n: int) -> str:
-    """``y(x)`` on one step from its coefficients ``F`` (flat, row-major 7×n), as a list."""
-    comps = []
-    for i in range(n):
-        F = [f"F[{p * n + i}]" for p in range(_NP)]
-        expr = F[6]
-        for p in range(5, -1, -1):  # Horner in alternating x and (1 - x), as DOP853's CONTD8
-            expr = f"{F[p]} + {'x' if p % 2 else 'u'}*({expr})"
-        comps.append(f"y0[{i}] + x*({expr})")
-    return ("def interp(x, y0, F):\n    u = 1.0 - x\n"
-            f"    return [{', '.join(comps)}]\n")
-
-
-@cache
-def _kernels(n: int) -> tuple[Callable, Callable, Callable]:
-    """The generated ``step``, ``dense`` and ``interp`` functions for dimension ``n``."""
-    ns: dict[str, Any] = {"sqrt": math.sqrt}
-    for src in (_step_source(n), _dense_source(n), _interp_source(n)):
-        exec(compile(src, f"<dop853 kernel n={n}>", "exec"), ns)  # noqa: S102 - generated here
-    return ns["step"], ns["dense"], ns["interp"]
-
-
-# ---------------------------------------------------------------------------------------------
-# Dense output
-
-class DenseSolution:
-    """The continuous solution over the accepted steps, callable like scipy's ``OdeSolution``:
-    ``sol(t)`` gives shape ``(n,)`` for a scalar ``t`` and ``(n, m)`` for ``m`` times. Times
-    outside ``[t_min, t_max]`` are extrapolated with the first or last step's polynomial.
-
-    A step's interpolation coefficients are computed (three more right-hand-side calls) the
-    first time a time in it is asked for; ``nfev`` counts those calls."""
-
-    def __init__(self, fun: Callable, n: int, t_old: list[float], h: list[float],
-                 y_old: list[list[float]], y_new: list[list[float]], K: list[tuple],
-                 t_end: float, coef: dict[int, tuple] | None = None,
-                 vectorized_fun: Callable | None = None):
-        self._fun, self.n = fun, n
-        self._vfun = vectorized_fun
-        self._K, self._y_new = K, y_new
-        self.t_old = np.asarray(t_old, dtype=float)
-        self.h = np.asarray(h, dtype=float)
-        self.y_old = np.asarray(y_old, dtype=float).reshape(len(t_old), n)
-        self.t_min = float(t_old[0]) if t_old else float(t_end)
-        self.t_max = float(t_end)
-        self.ts = np.append(self.t_old, self.t_max)
-        self._F = np.zeros((len(t_old), _NP, n))
-        self._have = np.zeros(len(t_old), dtype=bool)
-        self.nfev = 0
-        for i, F in (coef or {}).items():
-            self._F[i] = np.reshape(F, (_NP, n))
-            self._have[i] = True
-
-    @property
-    def n_steps(self) -> int:
-        return len(self.t_old)
-
-    def __getstate__(self) -> dict[str, Any]:
-        """Pickling builds every step's coefficients and leaves ``fun`` (often a closure)
-        behind, as scipy's OdeSolution carries arrays only."""
-        self.coefficients()
-        state = dict(self.__dict__)
-        state["_fun"] = None
-        state["_K"] = None
-        return state
-
-    def coefficients(self, steps: np.ndarray | None = None) -> np.ndarray:
-        """Interpolation coefficients ``(n_steps, 7, n)``, computing those of ``steps`` (all
-        by default) if not yet done."""
-        idx = np.arange(self.n_steps) if steps is None else np.asarray(steps)
-        missing = np.unique(idx[~self._have[idx]]) if idx.size else idx
-        if missing.size > 1 and self._vfun is not None:
-            self._F[missing] = self._dense_all(missing)
-        elif missing.size:
-            dense = _kernels(self.n)[1]
-            fun, t_old, h, y_old = self._fun, self.t_old, self.h, self.y_old
-            rows = [dense(fun, float(t_old[i]), float(h[i]), y_old[i].tolist(),
-                          self._y_new[i], self._K[i]) for i in missing.tolist()]
-            self._F[missing] = np.reshape(rows, (missing.size, _NP, self.n))
-        self._have[missing] = True
-        self.nfev += 3 * missing.size
-        return self._F
-
-    def _dense_all(self, steps: np.ndarray) -> np.ndarray:
-        """The coefficients of many steps at once: the three extra stages of every step in one
-        call each of the vectorised right-hand side ``vfun(t (m,), y (n, m)) -> (n, m)``."""
-        m, n = steps.size, self.n
-        K = np.empty((m, _NX, n))
-        K[:, :_NS + 1] = np.reshape([self._K[i] for i in steps.tolist()], (m, _NS + 1, n))
-        h, t0, y0 = self.h[steps], self.t_old[steps], self.y_old[steps]
-        for s in range(_NS + 1, _NX):
-            dy = h[:, None] * np.einsum("msn,s->mn", K[:, :s], _dop.A[s, :s])
-            K[:, s] = np.asarray(self._vfun(t0 + _dop.C[s] * h, (y0 + dy).T)).T
-        delta = np.asarray([self._y_new[i] for i in steps.tolist()]) - y0
-        F = np.empty((m, _NP, n))
-        F[:, 0] = delta
-        F[:, 1] = h[:, None] * K[:, 0] - delta
-        F[:, 2] = 2.0 * delta - h[:, None] * (K[:, _NS] + K[:, 0])
-        F[:, 3:] = h[:, None, None] * np.einsum("pk,mkn->mpn", _dop.D, K)
-        return F
-
-    def step_index(self, t: np.ndarray) -> np.ndarray:
-        """Index of the step each time falls in (a time on a step boundary takes the step that
-        ends there, as scipy's OdeSolution does)."""
-        idx = np.searchsorted(self.ts, t, side="left") - 1
-        return np.clip(idx, 0, self.n_steps - 1)
-
-    def __call__(self, t: Any) -> np.ndarray:
-        t = np.asarray(t, dtype=float)
-        if self.n_steps == 0:
-            y = np.asarray(self._y_new[0] if self._y_new else [], dtype=float)
-            return np.repeat(y[:, None], t.size, axis=1).reshape((self.n, *t.shape))
-        scalar = t.ndim == 0
-        tt = t.reshape(-1)
-        idx = self.step_index(tt)
-        F = self.coefficients(idx)[idx]  # (m, 7, n)
-        x = ((tt - self.t_old[idx]) / self.h[idx])[:, None]
-        u = 1.0 - x
-        y = F[:, 6] * x
-        for p in range(5, -1, -1):
-            y += F[:, p]
-            y *= u if p % 2 else x
-        y += self.y_old[idx]
-        return y[0] if scalar else y.T
-
-    def at(self, t: float) -> list[float]:
-        """The state at one time as a list of floats (no numpy; for event functions)."""
-        i = int(self.step_index(np.asarray([t]))[0])
-        F = self.coefficients(np.asarray([i]))[i].ravel().tolist()
-        return _kernels(self.n)[2]((t - self.t_old[i]) / self.h[i], self.y_old[i].tolist(), F)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -383,6 +180,141 @@ def _initial_step(fun: Callable, t0: float, y0: list[float], f0: Sequence[float]
     return min(100 * h0, h1, span)
 
 
+def _checked_start(t_span: tuple[float, float], y0: Sequence[float], rtol: float,
+                   atol: float | Sequence[float], max_step: float
+                   ) -> tuple[float, float, list[float], list[float]]:
+    """``t0``, ``t1``, the state as a list and ``atol`` per component, checked (ValueError)."""
+    t0, t_bound = float(t_span[0]), float(t_span[1])
+    if not t_bound >= t0:
+        raise ValueError("only forward integration is supported: t_span[1] must be >= t_span[0]")
+    if not (math.isfinite(t0) and math.isfinite(t_bound)):
+        raise ValueError("t_span must be finite")
+    y = [float(v) for v in np.asarray(y0, dtype=float).reshape(-1)]
+    n = len(y)
+    if n == 0:
+        raise ValueError("y0 must hold at least one component")
+    if not rtol > 0:
+        raise ValueError("rtol must be positive")
+    atol_l = [float(a) for a in np.broadcast_to(np.asarray(atol, dtype=float), (n,))]
+    if min(atol_l) < 0:
+        raise ValueError("atol must not be negative")
+    if max_step <= 0:
+        raise ValueError("max_step must be positive")
+    return t0, t_bound, y, atol_l
+
+
+def _on_lists(fun: Callable, events: Sequence[Callable] | None
+              ) -> tuple[Callable, list[Callable]]:
+    """``fun`` and the events of an array-state problem, taking lists as the driver does."""
+    def listed(t: float, yy: list[float]) -> Sequence[float]:
+        return np.asarray(fun(t, np.asarray(yy)), dtype=float).tolist()
+
+    def wrapped(ev: Callable) -> Callable:
+        def g(t: float, yy: list[float]) -> float:
+            return ev(t, np.asarray(yy))
+        return g
+    return listed, [wrapped(ev) for ev in (events or [])]
+
+
+@dataclass
+class _Steps:
+    """The accepted steps of a run (private to :func:`solve`, filled as it goes): their
+    starts, sizes, states before and after, stages, the dense coefficients built so far,
+    the output points and the counters."""
+
+    ts_old: list[float] = field(default_factory=list)
+    hs: list[float] = field(default_factory=list)
+    ys_old: list[list[float]] = field(default_factory=list)
+    ys_new: list[list[float]] = field(default_factory=list)
+    Ks: list[tuple] = field(default_factory=list)
+    coef: dict[int, tuple] = field(default_factory=dict)
+    t_out: list[float] = field(default_factory=list)
+    y_out: list[list[float]] = field(default_factory=list)
+    nfev: int = 0
+    n_rej: int = 0
+
+    def keep(self, t: float, h: float, y: list[float], y_new: list[float], K: tuple) -> int:
+        """Record an accepted step; its index."""
+        self.ts_old.append(t)
+        self.hs.append(h)
+        self.ys_old.append(y)
+        self.ys_new.append(y_new)
+        self.Ks.append(K)
+        return len(self.ts_old) - 1
+
+
+def _accepted_step(step: Callable, fun: Callable, t: float, y: list[float], f: list[float],
+                   h_abs: float, t_bound: float, rtol: float, atol: list[float],
+                   max_step: float, steps: _Steps) -> tuple | None:
+    """One accepted step from ``t``: ``(t_new, h, y_new, f_new, K, next |h|)``, shrinking
+    and retrying rejected ones (counted in ``steps``); None where the step size falls below
+    the floating-point floor (also a NaN step from a NaN right-hand side)."""
+    min_step = 10.0 * (math.nextafter(t, math.inf) - t)
+    if h_abs > max_step:
+        h_abs = max_step
+    elif h_abs < min_step:
+        h_abs = min_step
+    rejected = False
+    while True:
+        if not h_abs >= min_step:
+            return None
+        t_new = t + h_abs
+        if t_new > t_bound:
+            t_new = t_bound
+        h = t_new - t
+        y_new, f_new, err, K = step(fun, t, h, y, f, rtol, atol)
+        steps.nfev += _NS
+        h_abs = next_step_size(h, err, rejected)
+        if err < 1.0:
+            return t_new, h, y_new, f_new, K, h_abs
+        steps.n_rej += 1
+        rejected = True
+
+
+@dataclass
+class _Events:
+    """The run's events and what they found (private to :func:`solve`)."""
+
+    events: list[Callable]
+    props: list[tuple[float, int]]
+    g_old: list[float]
+    counts: list[int]
+    t_events: list[list[float]]
+    y_events: list[list[list[float]]]
+
+    @classmethod
+    def start(cls, events: list[Callable], t0: float, y0: list[float]) -> _Events:
+        return cls(events, [_event_props(ev) for ev in events],
+                   [float(ev(t0, y0)) for ev in events], [0] * len(events),
+                   [[] for _ in events], [[] for _ in events])
+
+    def after_step(self, fun: Callable, dense: Callable, interp: Callable, steps: _Steps,
+                   i_step: int, t: float, h: float, y: list[float], t_new: float,
+                   y_new: list[float]) -> tuple[float, list[float]] | None:
+        """Locate the events crossed in step ``i_step`` (``t`` to ``t_new``); the time and
+        state where a terminal one ends the run, else None."""
+        g_new = [float(ev(t_new, y_new)) for ev in self.events]
+        active = [j for j, (dr, _) in enumerate(self.props)
+                  if _crossed(self.g_old[j], g_new[j], dr)]
+        self.g_old, g_old = g_new, self.g_old
+        if not active:
+            return None
+        F = steps.coef.get(i_step)
+        if F is None:
+            F = dense(fun, t, h, y, y_new, steps.Ks[i_step])
+            steps.coef[i_step] = F
+            steps.nfev += 3
+        hits = sorted((_locate(self.events[j], interp, t, h, y, list(F), g_old[j],
+                               g_new[j]), j) for j in active)
+        for te, j in hits:
+            self.counts[j] += 1
+            self.t_events[j].append(te)
+            self.y_events[j].append(interp((te - t) / h, y, F))
+            if self.props[j][1] and self.counts[j] >= self.props[j][1]:
+                return te, interp((te - t) / h, y, F)
+        return None
+
+
 def solve(fun: Callable[[float, list[float]], Sequence[float]], t_span: tuple[float, float],
           y0: Sequence[float], *, rtol: float = 1e-3, atol: float | Sequence[float] = 1e-6,
           events: Sequence[Callable] | None = None, dense_output: bool = True,
@@ -415,141 +347,62 @@ def solve(fun: Callable[[float, list[float]], Sequence[float]], t_span: tuple[fl
         the dense output then builds the coefficients of many steps in one numpy pass instead
         of three Python calls of ``fun`` per step.
     """
-    t0, t_bound = float(t_span[0]), float(t_span[1])
-    if not t_bound >= t0:
-        raise ValueError("only forward integration is supported: t_span[1] must be >= t_span[0]")
-    if not (math.isfinite(t0) and math.isfinite(t_bound)):
-        raise ValueError("t_span must be finite")
-    y = [float(v) for v in np.asarray(y0, dtype=float).reshape(-1)]
+    t0, t_bound, y, atol_l = _checked_start(t_span, y0, rtol, atol, max_step)
     n = len(y)
-    if n == 0:
-        raise ValueError("y0 must hold at least one component")
-    if not rtol > 0:
-        raise ValueError("rtol must be positive")
-    atol_l = [float(a) for a in np.broadcast_to(np.asarray(atol, dtype=float), (n,))]
-    if min(atol_l) < 0:
-        raise ValueError("atol must not be negative")
-    if max_step <= 0:
-        raise ValueError("max_step must be positive")
     if array_state:
-        user_fun = fun
-
-        def fun(t: float, yy: list[float]) -> Sequence[float]:  # noqa: F811
-            return np.asarray(user_fun(t, np.asarray(yy)), dtype=float).tolist()
-
-        def _wrap_event(ev: Callable) -> Callable:
-            def g(t: float, yy: list[float]) -> float:
-                return ev(t, np.asarray(yy))
-            return g
-        events = [_wrap_event(ev) for ev in (events or [])]
-
+        fun, events = _on_lists(fun, events)
     step, dense, interp = _kernels(n)
-    events = list(events or [])
-    props = [_event_props(ev) for ev in events]
-    counts = [0] * len(events)
-    t_events: list[list[float]] = [[] for _ in events]
-    y_events: list[list[list[float]]] = [[] for _ in events]
-
     f = list(fun(t0, y))
     if len(f) != n:
         raise ValueError(f"fun returned {len(f)} values for a state of {n}")
-    nfev = 1
-    g_old = [float(ev(t0, y)) for ev in events]
-
-    ts_old: list[float] = []
-    hs: list[float] = []
-    ys_old: list[list[float]] = []
-    ys_new: list[list[float]] = []
-    Ks: list[tuple] = []
-    coef: dict[int, tuple] = {}
-    t_out, y_out = [t0], [y]
-    n_rej = 0
-    status = 0
-
+    steps = _Steps(t_out=[t0], y_out=[y], nfev=1)
+    found = _Events.start(list(events or []), t0, y)
     if first_step is None:
         h_abs = _initial_step(fun, t0, y, f, t_bound, rtol, atol_l)
-        nfev += 1
+        steps.nfev += 1
+    elif not first_step > 0:
+        raise ValueError("first_step must be positive")
     else:
-        if not first_step > 0:
-            raise ValueError("first_step must be positive")
         h_abs = min(float(first_step), t_bound - t0)
-    t = t0
-    nextafter = math.nextafter
+    t, status = t0, 0
     while t < t_bound:
-        min_step = 10.0 * (nextafter(t, math.inf) - t)
-        if h_abs > max_step:
-            h_abs = max_step
-        elif h_abs < min_step:
-            h_abs = min_step
-        rejected = False
-        while True:
-            if not h_abs >= min_step:  # also a NaN step from a NaN right-hand side
-                status = -1
-                break
-            t_new = t + h_abs
-            if t_new > t_bound:
-                t_new = t_bound
-            h = t_new - t
-            h_abs = h
-            y_new, f_new, err, K = step(fun, t, h, y, f, rtol, atol_l)
-            nfev += _NS
-            h_abs = next_step_size(h_abs, err, rejected)
-            if err < 1.0:
-                break
-            n_rej += 1
-            rejected = True
-        if status < 0:
+        done = _accepted_step(step, fun, t, y, f, h_abs, t_bound, rtol, atol_l, max_step,
+                              steps)
+        if done is None:
+            status = -1
             break
-        i_step = len(ts_old)
-        ts_old.append(t)
-        hs.append(h)
-        ys_old.append(y)
-        ys_new.append(y_new)
-        Ks.append(K)
-
-        if events:
-            g_new = [float(ev(t_new, y_new)) for ev in events]
-            active = [j for j, (dr, _) in enumerate(props)
-                      if _crossed(g_old[j], g_new[j], dr)]
-            if active:
-                F = coef.get(i_step)
-                if F is None:
-                    F = dense(fun, t, h, y, y_new, K)
-                    coef[i_step] = F
-                    nfev += 3
-                hits = sorted((_locate(events[j], interp, t, h, y, list(F), g_old[j],
-                                       g_new[j]), j) for j in active)
-                stop_at = None
-                for te, j in hits:
-                    counts[j] += 1
-                    t_events[j].append(te)
-                    y_events[j].append(interp((te - t) / h, y, F))
-                    if props[j][1] and counts[j] >= props[j][1]:
-                        stop_at = te
-                        break
-                if stop_at is not None:
-                    status = 1
-                    y_stop = interp((stop_at - t) / h, y, F)
-                    t_out.append(stop_at)
-                    y_out.append(y_stop)
-                    t = stop_at
-                    break
-            g_old = g_new
+        t_new, h, y_new, f_new, K, h_abs = done
+        i_step = steps.keep(t, h, y, y_new, K)
+        stop = found.after_step(fun, dense, interp, steps, i_step, t, h, y, t_new, y_new) \
+            if found.events else None
+        if stop is not None:
+            status = 1
+            t = stop[0]
+            steps.t_out.append(t)
+            steps.y_out.append(stop[1])
+            break
         t, y, f = t_new, y_new, f_new
-        t_out.append(t)
-        y_out.append(y)
+        steps.t_out.append(t)
+        steps.y_out.append(y)
+    return _result(steps, found, n, t, status, fun, dense_output, vectorized_fun)
 
+
+def _result(steps: _Steps, found: _Events, n: int, t_end: float, status: int, fun: Callable,
+            dense_output: bool, vectorized_fun: Callable | None) -> RKResult:
+    """The :class:`RKResult` of a run."""
     sol = None
     if dense_output:
-        sol = DenseSolution(fun, n, ts_old, hs, ys_old, ys_new, Ks, t_end=t, coef=coef,
+        sol = DenseSolution(fun, n, steps.ts_old, steps.hs, steps.ys_old, steps.ys_new,
+                            steps.Ks, t_end=t_end, coef=steps.coef,
                             vectorized_fun=vectorized_fun)
+    events = found.events
     return RKResult(
-        t=np.asarray(t_out, dtype=float),
-        y=np.asarray(y_out, dtype=float).T.reshape(n, len(t_out)),
+        t=np.asarray(steps.t_out, dtype=float),
+        y=np.asarray(steps.y_out, dtype=float).T.reshape(n, len(steps.t_out)),
         sol=sol,
-        t_events=[np.asarray(v, dtype=float) for v in t_events] if events else None,
-        y_events=[np.asarray(v, dtype=float).reshape(len(v), n) for v in y_events]
+        t_events=[np.asarray(v, dtype=float) for v in found.t_events] if events else None,
+        y_events=[np.asarray(v, dtype=float).reshape(len(v), n) for v in found.y_events]
         if events else None,
-        status=status, message=MESSAGES[status], nfev=nfev,
-        n_accepted=len(ts_old), n_rejected=n_rej,
+        status=status, message=MESSAGES[status], nfev=steps.nfev,
+        n_accepted=len(steps.ts_old), n_rejected=steps.n_rej,
     )

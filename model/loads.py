@@ -13,7 +13,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.flight import projectile_in_flight
 from trebuchet.model.forces import (
     ANGLE_COLUMNS,

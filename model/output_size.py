@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from trebuchet.errors import Option, TrebuchetInputError
+from trebuchet.core.errors import Option, TrebuchetInputError
 
 __all__ = ["check_output_size", "MIN_DT", "MAX_ROWS", "MAX_AFTER_RELEASE"]
 

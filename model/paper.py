@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.initial import initial_state, static_forces
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate

@@ -19,7 +19,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.user_files import read_user_file
 from trebuchet.model.engine import (
     DEFAULT_SMOOTHING_RATE,
     Engine,
@@ -29,7 +30,6 @@ from trebuchet.model.engine import (
     Start,
     default_moment_of_inertia,
 )
-from trebuchet.user_files import read_user_file
 
 __all__ = ["Engine", "Friction", "Start", "Release", "Flight", "Scene", "SCENE_KEYS", "as_scene",
            "default_moment_of_inertia", "DEFAULT_SMOOTHING_RATE"]

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.output_size import MAX_ROWS
 from trebuchet.model.scene import Scene
 

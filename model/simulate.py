@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.model import c_engine
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import kinematics as kin

@@ -38,7 +38,7 @@ from typing import Any
 import pandas as pd
 from tqdm.auto import tqdm
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.scene import Scene
 from trebuchet.model.sweep_dask import LOST_AFTER, run_dask
 from trebuchet.model.sweep_design import (

@@ -18,7 +18,7 @@ import argparse
 import time
 from collections import Counter
 
-from trebuchet.errors import cli_command
+from trebuchet.core.errors import cli_command
 from trebuchet.model.settings import ACCURACY, accuracy_option, add_budget_options, output_step
 from trebuchet.model.units import UNITS_HELP
 
@@ -63,12 +63,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _sweep(args: argparse.Namespace) -> int:
-    from trebuchet.csv_table import write_table
+    from trebuchet.core.csv_table import write_table
+    from trebuchet.core.output import check_target
     from trebuchet.model.design_sizing import read_scene
     from trebuchet.model.sweep import Budget, SimulationOptions, parse_grid_option, sweep
     from trebuchet.model.sweep_design import check_workers, keyed_arguments
     from trebuchet.model.sweep_journal import journal_path
-    from trebuchet.output import check_target
 
     grid = keyed_arguments(args.grid, parse_grid_option, "--grid")
     check_workers(args.workers)

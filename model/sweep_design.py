@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import kinematics as kin
 from trebuchet.model.design_sizing import Sizing, sized
 from trebuchet.model.dynamics import trough_sling_angle

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.model import c_engine
 from trebuchet.model import kinematics as kin
 from trebuchet.model.c_summary import EXTREMA, SUMMARY_KEYS, shot_summary, summary_and_times

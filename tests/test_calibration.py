@@ -8,7 +8,7 @@ import pytest
 from scipy.optimize._numdiff import approx_derivative
 
 import trebuchet.ingest.geometry.calibration as cal_mod
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.geometry import plane_map
 from trebuchet.ingest.geometry.calibration import angles_from_calibration, calibrate
 from trebuchet.ingest.geometry.camera import (

@@ -13,8 +13,8 @@ import pytest
 
 import trebuchet as tb
 from trebuchet.cli import main
-from trebuchet.errors import TrebuchetInputError
-from trebuchet.output import OUTPUT_MARKER
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.output import OUTPUT_MARKER
 
 from .conftest import HORSDAL
 

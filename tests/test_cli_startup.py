@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trebuchet import interrupts
 from trebuchet.cli import main
+from trebuchet.core import interrupts
 
 from .conftest import HORSDAL, ROOT
 

@@ -16,11 +16,10 @@ from trebuchet.ingest.compare import (
     CONTRACT_COLUMNS,
     METRIC_COLUMNS,
     CompareOptions,
-    _autocorrelation,
-    _gaussian_fractions,
     compare,
     outside_spans,
 )
+from trebuchet.ingest.compare_chance import _autocorrelation, _gaussian_fractions
 from trebuchet.model.scene import Scene
 from trebuchet.report.verdict import NOMINAL, details_table, verdict_html, verdict_table
 

@@ -15,17 +15,17 @@ import pytest  # noqa: E402
 import trebuchet.report.figures as figures_module
 from tests.conftest import HORSDAL, ROOT  # noqa: E402
 from trebuchet import cli  # noqa: E402
-from trebuchet.errors import TrebuchetInputError  # noqa: E402
+from trebuchet.core.errors import TrebuchetInputError  # noqa: E402
+from trebuchet.core.output import OUTPUT_MARKER  # noqa: E402
 from trebuchet.ingest.cli import log_options  # noqa: E402
 from trebuchet.ingest.compare import CONTRACT_COLUMNS, QUANTITIES  # noqa: E402
-from trebuchet.output import OUTPUT_MARKER  # noqa: E402
 from trebuchet.report import compare_cli
 from trebuchet.report.figures import FIGURES  # noqa: E402
 
 DEMO_LOG = ROOT / "data_samples" / "horsdal_240fps.csv"
 # the sample's gaps and resolution advisory: they go to the report, checked there
-pytestmark = [pytest.mark.filterwarnings("ignore::trebuchet.errors.TrebuchetDataWarning"),
-              pytest.mark.filterwarnings("ignore::trebuchet.errors.ModelValidityWarning")]
+pytestmark = [pytest.mark.filterwarnings("ignore::trebuchet.core.errors.TrebuchetDataWarning"),
+              pytest.mark.filterwarnings("ignore::trebuchet.core.errors.ModelValidityWarning")]
 
 
 @pytest.fixture

@@ -135,7 +135,7 @@ def test_events_located_to_solver_accuracy(shot):
 def test_forces_on_bad_angles_name_the_problem(horsdal):
     import pandas as pd
 
-    from trebuchet.errors import TrebuchetInputError
+    from trebuchet.core.errors import TrebuchetInputError
     from trebuchet.model.loads import loads
 
     run = simulate(horsdal, t_eval=[0.0, 0.5])

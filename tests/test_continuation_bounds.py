@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from trebuchet.cli import main
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.events.driven_pendulum import MAX_GAP_FRAMES
 from trebuchet.ingest.events.sling_continuation import continued_sling, release_horizon
 from trebuchet.ingest.reconstruct import reconstruct

@@ -1,4 +1,4 @@
-"""The CSV writer (trebuchet/csv_table.py) writes pandas' bytes, and units on request."""
+"""The CSV writer (trebuchet/core/csv_table.py) writes pandas' bytes, and units on request."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from trebuchet.cli import main
-from trebuchet.csv_table import csv_text, write_table
+from trebuchet.core.csv_table import csv_text, write_table
 from trebuchet.model.simulate import simulate
 from trebuchet.model.sweep import STATUS_REFUSED, SUMMARY_COLUMNS, SimulationOptions, sweep
 from trebuchet.model.sweep_cli import sweep_units

@@ -12,7 +12,7 @@ import pytest
 
 import trebuchet as tb
 from trebuchet import cli
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import design as design_module
 from trebuchet.model.design import design
 from trebuchet.model.design_output import pareto_front, scene_toml, summary_table

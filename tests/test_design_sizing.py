@@ -10,7 +10,7 @@ import pytest
 import sympy as sp
 
 from trebuchet import cli
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.design import design
 from trebuchet.model.design_output import scene_toml
 from trebuchet.model.design_search import SearchOptions

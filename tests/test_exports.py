@@ -21,7 +21,7 @@ import pytest
 import trebuchet
 from tests.exports.shot import BEAM_ROWS, BEAM_TOL
 from tests.exports.truth import Truth
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 
 ANGLES = ("theta", "psi", "phi")
 

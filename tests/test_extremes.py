@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.model.simulate import simulate
 
 from .test_variants import scene_with

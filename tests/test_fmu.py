@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.fmu.crosscheck import reference
 from trebuchet.fmu.interface import (
     OUTPUT_NAMES,

@@ -13,7 +13,7 @@ import trebuchet as tb
 from tests.conftest import ROOT
 from tests.friction_reference import friction_forces as ref_friction
 from tests.friction_reference import loads_at, simulate_reference
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import forces as fo
 from trebuchet.model.scene import Friction, Scene

@@ -26,10 +26,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from trebuchet import output
 from trebuchet.cli import main
-from trebuchet.errors import TrebuchetInputError
-from trebuchet.output import OUTPUT_MARKER, atomic_dir, check_target, write_csv
+from trebuchet.core import output
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.output import OUTPUT_MARKER, atomic_dir, check_target, write_csv
 
 from .conftest import HORSDAL, ROOT
 
@@ -364,7 +364,7 @@ def test_a_really_full_tmpfs_names_the_file_and_leaves_nothing(tmp_path, capsys)
 
 _WRITER = """
 import sys, time
-from trebuchet.output import atomic_dir, atomic_path
+from trebuchet.core.output import atomic_dir, atomic_path
 target = sys.argv[2]
 with (atomic_path(target) if sys.argv[1] == "file" else atomic_dir(target)) as tmp:
     if sys.argv[1] == "file":

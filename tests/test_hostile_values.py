@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from trebuchet import Scene, TrebuchetInputError, read_log
-from trebuchet.errors import TrebuchetDataWarning
+from trebuchet.core.errors import TrebuchetDataWarning
 from trebuchet.ingest.logs.scene_check import scene_check
 
 SAMPLES = Path(__file__).resolve().parents[1] / "data_samples"

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.ingest.compare import CompareOptions
 from trebuchet.ingest.identification.check import autocorrelations, residual_check
 from trebuchet.ingest.identification.identify import identify

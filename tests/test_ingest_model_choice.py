@@ -10,7 +10,7 @@ import warnings
 import numpy as np
 import pytest
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.smoothing.model_choice import (
     criterion,
     likelihood_weights,

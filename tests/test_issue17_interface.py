@@ -14,7 +14,7 @@ import pytest
 
 import trebuchet as tb
 from trebuchet.cli import build_parser, cli_words, main
-from trebuchet.errors import Option, TrebuchetInputError, command_line, warn_at_caller
+from trebuchet.core.errors import Option, TrebuchetInputError, command_line, warn_at_caller
 from trebuchet.model import sweep as sweep_module
 
 from .conftest import HORSDAL, ROOT

@@ -12,7 +12,7 @@ import trebuchet as tb
 from tests.exports import read_export
 from tests.exports.shot import scene as export_scene
 from trebuchet.cli import main
-from trebuchet.errors import TrebuchetInputError, command_line
+from trebuchet.core.errors import TrebuchetInputError, command_line
 from trebuchet.ingest.cli import add_log_arguments, log_options
 from trebuchet.ingest.compare import CHANCE_COLUMNS, METRIC_COLUMNS, QUANTITIES
 from trebuchet.ingest.logs.scene_check import scene_check

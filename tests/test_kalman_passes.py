@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 from scipy.ndimage import gaussian_filter1d
 
-import trebuchet.ingest.reconstruct as reconstruct_module
+import trebuchet.ingest.loads_table as loads_table_module
 from tests.test_smooth_kalman import _case
 from trebuchet.ingest.kalman import batch
 from trebuchet.ingest.kalman.reference import numpy_passes
@@ -172,7 +172,7 @@ def test_chunked_load_propagation_changes_no_row(monkeypatch):
     """Evaluated a few rows at a time, the rows in flight with the last row in the sling:
     the loads and their sd of the whole table to the last bit."""
     whole = _quiet_reconstruct(SAMPLES / "horsdal_240fps.csv", "horsdal_large.toml")
-    monkeypatch.setattr(reconstruct_module, "chunk_rows", lambda n: 37)
+    monkeypatch.setattr(loads_table_module, "chunk_rows", lambda n: 37)
     chunked = _quiet_reconstruct(SAMPLES / "horsdal_240fps.csv", "horsdal_large.toml")
     assert (whole["phase"] == 3).sum() > 37  # flight rows in chunks without the release row
     for c in whole.columns:

@@ -11,7 +11,7 @@ import pytest
 
 import trebuchet as tb
 from trebuchet.cli import main
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import output_size as size
 from trebuchet.model import simulate as sim
 from trebuchet.model.shot_checks import checked_times

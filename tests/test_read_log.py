@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.core.errors import TrebuchetDataWarning, TrebuchetInputError
 from trebuchet.ingest.logs.read_log import read_log, write_log
 
 LOGS = Path(__file__).parent / "fixtures" / "logs"

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.core.errors import TrebuchetDataWarning, TrebuchetInputError
 from trebuchet.ingest.logs.read_log import MIN_FRAMES, read_log
 
 LOGS = Path(__file__).parent / "fixtures" / "logs"
@@ -324,7 +324,7 @@ def test_an_absurd_value_under_a_stated_unit_names_its_row_not_the_header(tmp_pa
 
 def test_a_missing_angle_hint_speaks_the_callers_words(tmp_path):
     """Python callers are told the keyword, command-line users the flag."""
-    from trebuchet.errors import command_line
+    from trebuchet.core.errors import command_line
 
     rows = [r.rsplit(",", 1)[0] + ",7" for r in good_rows()]
     path = write(tmp_path, "t (s),theta (deg),psi (deg),sling (deg)\n" + "\n".join(rows))

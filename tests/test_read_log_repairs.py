@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trebuchet.errors import TrebuchetDataWarning
+from trebuchet.core.errors import TrebuchetDataWarning
 from trebuchet.ingest.logs.read_log import read_log
 
 FPS = 100.0

@@ -12,7 +12,7 @@ import pytest
 
 import trebuchet
 from tests.exports import read_export
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.logs.result import ReadLog, read_log_info
 
 

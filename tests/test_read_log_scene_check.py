@@ -13,7 +13,7 @@ import pytest
 import trebuchet
 from tests.exports import read_export
 from tests.exports.shot import scene
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.cli import add_log_arguments, log_options
 from trebuchet.ingest.logs.scene_check import scene_check
 

@@ -10,16 +10,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError
 from trebuchet.ingest.events.release_model import (
     ModelRelease,
     ReleaseFit,
     phase_change_profile,
-    release_choice,
     release_from_model,
     release_jump_chi2,
     scene_doubt,
 )
+from trebuchet.ingest.events.release_sources import SceneTiming, release_without_track_end
 from trebuchet.ingest.reconstruct import ReconstructOptions, reconstruct
 from trebuchet.ingest.smoothing.smooth import smooth
 from trebuchet.ingest.synthetic.simulated_log import continued_sling_log, simulated_log
@@ -141,7 +141,7 @@ def test_another_engine_than_the_scene_warns_and_keeps_the_smoothers_release(hor
                                                                               backyard):
     log, _ = continued_sling_log(backyard, 240, 0.5, "pendulum", seed=0)
     with pytest.warns(ModelValidityWarning, match="is the scene the engine filmed"):
-        res = reconstruct(log, horsdal)
+        res = reconstruct(log, horsdal, options=ReconstructOptions(scene_mismatch="warn"))
     assert res.attrs["reconstruction"].event_sources["release"] != SOURCE
     # the kept smoothing has the calibrated bands, not the checking smoothing's posterior
     assert np.any(res.attrs["reconstruction"].noise["theta"]["band_scale"] < 1.0)
@@ -224,15 +224,22 @@ def test_phase_change_profile_puts_the_change_where_the_phases_swap():
 
 
 def test_release_choice():
+    """Where the sling's track goes on: the equations' release replaces the jump search's
+    where they differ; where the equations cannot place it, the jump's is unconfirmed: its
+    sd covers the scene's own release time, and it warns."""
     fit = ModelRelease(1.0, 0.002, 0.2, 1.0, 100.0, SOURCE)
-    assert release_choice(fit, 1.0015) == (False, None)  # within its sd: agreed
-    use, note = release_choice(fit, 1.05)
-    assert use and "50 ms before" in note
-    use, note = release_choice(fit, None)
-    assert use and "no jump" in note
-    use, note = release_choice(dataclasses.replace(fit, misfit=12.0), 1.05)
-    assert not use and "engine filmed" in note
-    assert release_choice(dataclasses.replace(fit, time=None), 1.05) == (False, None)
+    frame, timing = 1 / 240, SceneTiming(1.02)
+    agreed = release_without_track_end(fit, 1.0015, 0.5 * frame, frame, timing)
+    assert agreed.kind == "jump" and agreed.time == 1.0015 and agreed.note is None
+    assert agreed.confirmed and agreed.warning is None
+    c = release_without_track_end(fit, 1.05, 0.5 * frame, frame, timing)
+    assert c.kind == "equations" and c.time == 1.0 and "50 ms before" in c.note
+    c = release_without_track_end(fit, None, 0.5 * frame, frame, timing)
+    assert c.kind == "equations" and "no jump" in c.note
+    for model in (dataclasses.replace(fit, misfit=12.0), dataclasses.replace(fit, time=None)):
+        c = release_without_track_end(model, 1.05, 0.5 * frame, frame, timing)
+        assert c.time == 1.05 and not c.confirmed and "uncertain" in c.warning
+        assert 2.0 * c.sd >= 0.03  # covers the scene's own release, 30 ms away
 
 
 def test_bad_input_is_refused(backyard):

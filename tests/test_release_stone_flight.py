@@ -12,9 +12,11 @@ import pytest
 
 from bench.video.export import write_deeplabcut
 from bench.video.truth import POINTS, Filming, engine_points, frame_times, truth_table
-from trebuchet.errors import ModelValidityWarning
+from trebuchet.core.errors import ModelValidityWarning
 from trebuchet.ingest.events.release_model import ModelRelease
 from trebuchet.ingest.events.release_sources import (
+    SceneTiming,
+    TrackEnd,
     TrackEndRelease,
     release_at_track_end,
 )
@@ -134,6 +136,7 @@ def test_points_without_a_stone_give_nothing(horsdal):
 FRAME = 1 / 240
 END = (1.3, FRAME / np.sqrt(12))  # the track's end: between its last frame and the next
 LAST, NEXT = 1.3 - FRAME / 2, 1.3 + FRAME / 2
+TRACK_END = TrackEnd(END[0], END[1], LAST, NEXT, FRAME)
 
 
 def _stone(time, sd=0.1 * FRAME):
@@ -146,7 +149,7 @@ def _model(time, sd=0.05 * FRAME, misfit=0.3):
 
 
 def test_agreeing_sources_are_averaged_by_their_sd_with_a_floor():
-    c = release_at_track_end(END, LAST, NEXT, FRAME, _stone(1.28), _model(1.28 + 0.4 * FRAME))
+    c = release_at_track_end(TRACK_END, _stone(1.28), _model(1.28 + 0.4 * FRAME))
     assert c.kind == "before end" and c.warning is None
     assert c.time == pytest.approx(1.28 + 0.2 * FRAME, abs=0.02 * FRAME)  # equal floors
     floor = TrackEndRelease().floor_frames * FRAME
@@ -155,31 +158,65 @@ def test_agreeing_sources_are_averaged_by_their_sd_with_a_floor():
 
 
 def test_disagreeing_sources_take_the_stones_flight_and_warn():
-    c = release_at_track_end(END, LAST, NEXT, FRAME, _stone(1.28), _model(1.28 - 22 * FRAME))
+    c = release_at_track_end(TRACK_END, _stone(1.28), _model(1.28 - 22 * FRAME))
     assert c.time == 1.28 and c.warning is not None
     assert "disagree" in c.warning and "stone's flight is taken" in c.warning
 
 
 def test_a_track_lost_before_the_release_is_the_equations():
-    c = release_at_track_end(END, LAST, NEXT, FRAME, _stone(None), _model(1.3 + 30 * FRAME))
+    c = release_at_track_end(TRACK_END, _stone(None), _model(1.3 + 30 * FRAME))
     assert c.kind == "lost" and c.time == pytest.approx(1.3 + 30 * FRAME)
 
 
 def test_a_track_that_goes_on_past_the_equations_release_is_not_the_release():
-    c = release_at_track_end(END, LAST, NEXT, FRAME, None, _model(1.3 - 5 * FRAME))
+    c = release_at_track_end(TRACK_END, None, _model(1.3 - 5 * FRAME))
     assert c.kind == "before end" and c.time == pytest.approx(1.3 - 5 * FRAME)
     assert c.warning is not None and "followed the stone in flight" in c.warning
 
 
 def test_a_track_end_the_equations_confirm_stands():
-    c = release_at_track_end(END, LAST, NEXT, FRAME, None, _model(1.3 - 0.3 * FRAME))
+    c = release_at_track_end(TRACK_END, None, _model(1.3 - 0.3 * FRAME))
     assert c.kind == "track end" and c.time == END[0] and c.sd == END[1]
     assert c.source == "end of the sling track" and c.warning is None
 
 
-def test_an_unconfirmed_track_end_warns():
-    c = release_at_track_end(END, LAST, NEXT, FRAME, None, _model(1.2, misfit=20.0))
-    assert c.time == END[0] and c.warning is not None and "confirmed by neither" in c.warning
+def test_equations_more_than_2_of_their_sd_before_the_track_end_are_taken():
+    """A tracker that followed the stone for a few frames without the stone being seen to
+    leave its circle (an adaptive template): the track's end's own sd (a uniform frame's)
+    no longer lets it agree with equations 1.06 frames earlier at sd 0.51 frame (with the
+    half-frame floor)."""
+    c = release_at_track_end(TRACK_END, None, _model(1.3 - 1.06 * FRAME, sd=0.1 * FRAME))
+    assert c.kind == "before end" and c.time == pytest.approx(1.3 - 1.06 * FRAME)
+
+
+def test_disagreeing_sources_get_an_sd_that_covers_both():
+    """Issue 26: never a confident wrong value."""
+    c = release_at_track_end(TRACK_END, _stone(1.28), _model(1.28 - 22 * FRAME))
+    assert 2.0 * c.sd >= 22 * FRAME and "cover both" in c.warning
+
+
+def test_an_unconfirmed_track_end_warns_with_an_sd_that_covers_the_scene_s_release():
+    """Neither the equations (misfit) nor the stone: the track's end stands, its sd wide
+    enough to reach the scene's own release 11 frames on (the shipped tilted sample's
+    spigot dropped, before issue 26: 11 frames early with sd 0.29 frame, exit 0)."""
+    c = release_at_track_end(TRACK_END, None, _model(1.2, misfit=20.0),
+                             SceneTiming(1.3 + 11 * FRAME))
+    assert c.time == END[0] and not c.confirmed
+    assert "confirmed by neither" in c.warning and "uncertain" in c.warning
+    assert 2.0 * c.sd >= 11 * FRAME
+
+
+def test_a_stuck_stone_s_flight_is_not_flight():
+    """Issue 26: the stone's track ends where the tracker stuck on a frame leg; the frames
+    before the stick fit a flight (the template sliding onto the leg). Not taken: the
+    equations place the release (the track was lost), or, without them, the track's end is
+    unconfirmed with an sd that reaches the scene's own release."""
+    stuck = TrackEnd(END[0], END[1], LAST, NEXT, FRAME, stone_held=True)
+    c = release_at_track_end(stuck, _stone(1.28), _model(1.3 + 121 * FRAME))
+    assert c.kind == "lost" and c.time == pytest.approx(1.3 + 121 * FRAME)
+    c = release_at_track_end(stuck, _stone(1.28), _model(1.2, misfit=20.0),
+                             SceneTiming(1.3 + 121 * FRAME))
+    assert not c.confirmed and 2.0 * c.sd >= 121 * FRAME and "stood still" in c.warning
 
 
 # ---------------------------------------------------------------------- end to end
@@ -221,3 +258,69 @@ def test_at_60_fps_the_windows_hold_too_few_frames_and_the_fit_declines(horsdal)
     until = t[np.flatnonzero(np.isfinite(stone[:, 0]))[-1]]
     assert stone_release(t, px[:, 1], stone, np.array([0.0, -horsdal.g * PX_PER_M]),
                          PX_PER_M, until) is None
+
+
+@pytest.mark.parametrize("engine, early", [("paper", 121), ("backyard", 50)])
+def test_a_stone_stuck_on_a_frame_leg_gives_no_confident_release(tmp_path, horsdal, backyard,
+                                                                engine, early):
+    """Issue 26: Kinovea's default tracker re-cuts its template on a frame leg as the stone
+    passes behind it and stays there, ``early`` frames before the release (the issue's
+    cases: 121 frames on the paper engine, 50 on the backyard one, at 240 fps). Over the 13
+    frames before, the template slides onto the leg (the stone's position drags towards
+    where it sticks). The package names the stone as stuck; before issue 26 it took those
+    13 frames for free flight and said the release was that early with an sd of 1.3
+    frames. Now: within 2 frames, or an sd that covers the error and a warning that the
+    release is uncertain."""
+    scene = horsdal if engine == "paper" else backyard
+    t, truth, points = _shot(scene)
+    px = _pixels(points, 0.2, 5)
+    release = truth.attrs["events"]["release"]
+    i_rel = int(np.searchsorted(t, release))
+    stick = i_rel - early
+    stone = px[:, POINTS.index("projectile")]
+    slide = np.linspace(0.0, 1.0, 14)[:, None]  # the template drags onto the leg
+    leg = stone[stick] + np.array([4.0, 2.0])
+    stone[stick - 13:stick + 1] = (1 - slide) * stone[stick - 13:stick + 1] + slide * leg
+    rng = np.random.default_rng(7)
+    stone[stick + 1:] = leg + rng.normal(0.0, 0.05, stone[stick + 1:].shape)
+    scores = np.full(px.shape[:2], 0.99)
+    path = write_deeplabcut(tmp_path / f"stuck_{engine}.csv", POINTS, px, scores)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        res = reconstruct(path, scene, fps=FPS)
+    messages = [str(w.message) for w in rec]
+    assert any("stands still" in m and "projectile" in m for m in messages)  # named stuck
+    done = reconstruction_of(res)
+    err = (done.events["release"] - release) * FPS
+    sd = done.event_sd["release"] * FPS
+    warned = any("release is uncertain" in m or "disagree" in m for m in messages)
+    assert abs(err) <= 2.0 or (abs(err) <= 2.0 * sd and warned), (err, sd, messages)
+
+
+def test_a_single_source_far_from_the_scene_s_release_covers_it_and_warns():
+    """Issue 26's stress grid: a template sliding onto a post gave a stone's "flight" 128
+    frames early with a stated 0.6 frame (the equations could not check it). One source
+    alone, further than a tenth of the trigger-to-release time from the scene's own
+    release: its sd covers both and it warns; near the scene's release it stands, with the
+    stone-alone floor of 1.5 frames."""
+    far = release_at_track_end(TRACK_END, _stone(1.3 - 128 * FRAME), None,
+                               SceneTiming(1.3, 1.0))
+    assert far.time == pytest.approx(1.3 - 128 * FRAME) and "scene's own release" in far.warning
+    assert 2.0 * far.sd >= 128 * FRAME
+    near = release_at_track_end(TRACK_END, _stone(1.28), None, SceneTiming(1.3, 1.0))
+    assert near.warning is None and near.sd >= 1.5 * FRAME
+
+
+def test_one_frame_of_flight_is_no_flight():
+    one = StoneRelease(1.28, 0.1 * FRAME, 0.1, 50.0, 1, LAST, "one frame")
+    c = release_at_track_end(TRACK_END, one, None, SceneTiming(1.3, 1.0))
+    assert c.time == END[0] and not c.confirmed and "1 frame(s) of flight" in c.warning
+
+
+def test_equations_a_little_after_the_track_end_cover_it_and_warn():
+    """A track lost four frames before the release (behind a post), the equations' release
+    that late but not enough for a lost track: before, the track's end stood with an sd of
+    0.29 frame, 3.9 frames early (a stress-grid cell)."""
+    c = release_at_track_end(TRACK_END, None, _model(1.3 + 3.9 * FRAME, sd=1.4 * FRAME))
+    assert c.time == pytest.approx(1.3 + 3.9 * FRAME) and "cover both" in c.warning
+    assert 2.0 * c.sd >= 3.9 * FRAME

@@ -13,8 +13,8 @@ import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 import trebuchet.report.figures as figures_module
-from trebuchet.errors import TrebuchetInputError  # noqa: E402
-from trebuchet.output import OUTPUT_MARKER  # noqa: E402
+from trebuchet.core.errors import TrebuchetInputError  # noqa: E402
+from trebuchet.core.output import OUTPUT_MARKER  # noqa: E402
 from trebuchet.report import page as report_mod  # noqa: E402
 from trebuchet.report import report_cli  # noqa: E402
 from trebuchet.report.figures import FIGURES  # noqa: E402

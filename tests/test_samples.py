@@ -18,7 +18,7 @@ import pandas as pd
 import pytest
 
 from tests.conftest import BACKYARD
-from trebuchet.errors import TrebuchetDataWarning
+from trebuchet.core.errors import TrebuchetDataWarning
 from trebuchet.ingest.logs.read_log import read_log
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.scene import Scene, default_moment_of_inertia
 
 from .conftest import BACKYARD, HORSDAL

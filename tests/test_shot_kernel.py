@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import phase_events as pev
 from trebuchet.model import shot_kernel as sk

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from data_samples import make_samples as ms
-from trebuchet.errors import TrebuchetDataWarning
+from trebuchet.core.errors import TrebuchetDataWarning
 from trebuchet.ingest.geometry.sling_circle import first_row_off_circle, sling_ratio
 from trebuchet.ingest.logs.read_log import read_log
 from trebuchet.ingest.reconstruct import reconstruct
@@ -93,5 +93,5 @@ def test_the_release_of_a_stone_tracked_in_flight_is_found_at_the_cut(tmp_path):
     found = res.attrs["events"]["release"]
     sd = res.attrs["reconstruction"].event_sd["release"]
     assert abs(found - release) < 3.0 * sd < 6.0 / 120
-    assert (res.attrs["reconstruction"].event_sources["release"]
-            == "the tracked stone leaves its sling's circle")
+    # the stone seen leaving, checked against the engine's equations (issue 26)
+    assert "stone" in res.attrs["reconstruction"].event_sources["release"]

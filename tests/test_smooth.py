@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.core.errors import TrebuchetDataWarning, TrebuchetInputError
 from trebuchet.ingest.smoothing.smooth import ANGLES, smooth
 from trebuchet.ingest.synthetic.shaped_log import SHAPES, synthetic_log
 

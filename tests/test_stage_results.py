@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.advisory import Advisory
 from trebuchet.ingest.logs.read_log import read_log
 from trebuchet.ingest.logs.result import ReadLog

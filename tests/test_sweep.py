@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from trebuchet import cli
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import sweep_cli
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate

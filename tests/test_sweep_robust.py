@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model import sweep as sweep_module
 from trebuchet.model.sweep import Budget, SimulationOptions, sweep
 from trebuchet.model.sweep_journal import journal_path, open_journal

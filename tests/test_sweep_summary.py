@@ -151,7 +151,7 @@ def test_sweep_figures_are_the_summary_path(horsdal):
 
 
 def test_rows_option_refused_out_of_range():
-    from trebuchet.errors import TrebuchetInputError
+    from trebuchet.core.errors import TrebuchetInputError
 
     with pytest.raises(TrebuchetInputError, match="dt"):
         SimulationOptions(dt=0.5).check()

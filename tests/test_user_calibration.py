@@ -12,7 +12,7 @@ import pytest
 
 import trebuchet as tb
 from trebuchet.cli import main
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.core.errors import TrebuchetDataWarning, TrebuchetInputError
 from trebuchet.ingest.geometry.user_calibration import read_calibration, undistort_opencv
 from trebuchet.ingest.user_calibrated import posed_log
 

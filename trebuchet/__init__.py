@@ -25,13 +25,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from trebuchet import interrupts
+from trebuchet.core import interrupts
 
 if interrupts.started_as_command():  # the ``trebuchet`` command: Ctrl-C quiet from here on
     interrupts.catch_interrupts()
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetDataWarning, TrebuchetInputError
-from trebuchet.version import __version__
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetDataWarning, TrebuchetInputError
+from trebuchet.core.version import __version__
 
 if TYPE_CHECKING:
     from trebuchet.ingest.compare import compare

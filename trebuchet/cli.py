@@ -12,7 +12,7 @@ they run, so that ``trebuchet --help`` and every usage error answer at once
 
 Ctrl-C, at any moment (the heavy modules still importing included), prints one line,
 ``trebuchet: interrupted``, and ends with status 130 and no traceback; a half-written output is
-removed as after any other failure (:mod:`trebuchet.output`).
+removed as after any other failure (:mod:`trebuchet.core.output`).
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ import warnings
 from collections.abc import Sequence
 from typing import NoReturn
 
-from trebuchet.errors import Option, TrebuchetInputError, command_line
-from trebuchet.interrupts import (
+from trebuchet.core.errors import Option, TrebuchetInputError, command_line
+from trebuchet.core.interrupts import (
     INTERRUPTED,
     MESSAGE,
     catch_interrupts,
@@ -64,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="trebuchet",
         description="Internal forces of the swinging-counterweight trebuchet (Horsdal).")
-    from trebuchet.version import __version__
+    from trebuchet.core.version import __version__
 
     parser.add_argument("--version", action="version", version=f"trebuchet {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")

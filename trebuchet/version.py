@@ -1,3 +1,8 @@
-"""The package's version, in one place (pyproject.toml reads it from here)."""
+"""``trebuchet.version`` is :mod:`trebuchet.core.version` (moved there; this path is kept so
+that code written before the move still imports it: the same module object, not a copy)."""
 
-__version__ = "0.1.0"
+import sys
+
+from trebuchet.core import version as _version
+
+sys.modules[__name__] = _version

@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["COVERED", "frame_index", "shot_scores", "angle_errors", "tracking_scores"]
+__all__ = ["COVERED", "frame_index", "shot_scores", "angle_errors", "tracking_scores",
+           "event_scores", "EVENT_WARNINGS"]
 
 #: Components whose ±2 sd band coverage is scored, and the phases over which.
 COVERED = {"F_R_x": (1, 2, 3), "F_R_y": (1, 2, 3), "F_S_x": (1, 2), "F_S_y": (1, 2)}
@@ -102,3 +103,38 @@ def tracking_scores(positions: np.ndarray, scores: np.ndarray, true_px: np.ndarr
     return {"track_px": float(np.nanmedian(err[kept])) if kept.any() else np.nan,
             "lost_pct": float(100.0 * (~kept).mean()),
             "wrong_pct": float(100.0 * (kept & (err > 3.0)).mean())}
+
+
+#: Phrases of a warning that an event is uncertain or its sources disagree, per event.
+EVENT_WARNINGS = {
+    "trigger": ("the trigger at",),
+    "lift_off": ("the lift-off at", "lift-off sources disagree"),
+    "release": ("release is uncertain", "release sources disagree", "the release at"),
+}
+
+
+def event_scores(result: pd.DataFrame, truth: pd.DataFrame, fps: float,
+                 warnings: list[str]) -> dict[str, float]:
+    """Each event's error and stated sd (frames) and whether a warning named it uncertain
+    (``<event>_err``, ``<event>_sd``, ``<event>_warned``; the trigger's truth is the
+    truth's ``attrs["events"]["trigger"]``), and ``<event>_ok``: the bench's rule, an event
+    more than 2 frames off lies within its stated 2 sd and is warned about (1.0 / 0.0;
+    NaN where the event is missing on either side)."""
+    rec = result.attrs.get("reconstruction")
+    found = rec.events if rec is not None else result.attrs.get("events", {})
+    sds = rec.event_sd if rec is not None else {}
+    true = truth.attrs["events"]
+    out: dict[str, float] = {}
+    for key, phrases in EVENT_WARNINGS.items():
+        est, want = found.get(key), true.get(key)
+        if est is None or want is None:
+            out |= {f"{key}_err": np.nan, f"{key}_sd": np.nan, f"{key}_warned": np.nan,
+                    f"{key}_ok": np.nan}
+            continue
+        err = (est - want) * fps
+        sd = float(sds.get(key, np.nan)) * fps
+        warned = any(p in w for w in warnings for p in phrases)
+        ok = abs(err) <= 2.0 or (abs(err) <= 2.0 * sd and warned)
+        out |= {f"{key}_err": err, f"{key}_sd": sd, f"{key}_warned": float(warned),
+                f"{key}_ok": float(ok)}
+    return out

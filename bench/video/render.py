@@ -26,8 +26,8 @@ import trebuchet as tb
 
 from .camera import Camera, project, rotation, undistort_pixels
 
-__all__ = ["Look", "Member", "look_for", "frame_members", "background", "render_frames",
-           "sub_samples"]
+__all__ = ["Look", "Member", "look_for", "frame_members", "stone_post", "background",
+           "render_frames", "sub_samples"]
 
 SHIFT = 4  # OpenCV's fractional bits: coordinates in 1/16 px
 ONE = 1 << SHIFT
@@ -86,6 +86,19 @@ def frame_members(scene: tb.Scene) -> tuple[Member, ...]:
     return (Member((-foot, 0.0), (-0.05 * H, top), width, z),
             Member((foot, 0.0), (0.05 * H, top), width, z),
             Member((-brace_x, brace_y), (brace_x, brace_y), width, z))
+
+
+def stone_post(scene: tb.Scene, fraction: float) -> Member:
+    """A post in front of the engine (as the frame's members: 1.8 % of L1 + L4 wide, 0.1 (L1 +
+    L4) nearer the camera) standing from the ground to 0.2 (L1 + L4) above the stone where
+    the stone is ``fraction`` of the way from the trigger to the release (the stone passes
+    behind it in the sling: a tracker that never lets go sticks on it)."""
+    e = scene.engine
+    size = e.L1 + e.L4
+    release = tb.simulate(scene, t_eval=[0.0]).attrs["events"]["release"]
+    at = tb.simulate(scene, t_eval=[fraction * release])
+    x, y = float(at["x_m"].iloc[0]), float(at["y_m"].iloc[0])
+    return Member((x, 0.0), (x, y + 0.2 * size), 0.018 * size, 0.1 * size)
 
 
 def background(cam: Camera, seed: int) -> np.ndarray:

@@ -13,6 +13,10 @@ search starts from the prediction, coasting on the last velocity (at most
 ``max_search_px``; no match is taken on top of another tracked marker (they look alike).
 With ``update_rate > 0`` the template drifts toward each good match (Kinovea-like adaptive
 tracking: it follows motion blur, and can slide onto an occluding member and stay there).
+With ``recut_score`` set (Kinovea's default tracker, left unedited), a match that scores
+below it but at least ``lost_score`` is taken as found and the template is cut anew
+there: when a marker passes behind a frame member, the new template is the member's, which
+then matches perfectly where it stands, and the point stays stuck on the member.
 """
 
 from __future__ import annotations
@@ -34,7 +38,11 @@ class TrackerSettings:
     lost, up to ``max_search_px``; ``lost_score``: below it the point is lost this frame (a
     partly hidden marker scores 0.6–0.8, and so do look-alike spots of the background);
     ``update_rate``: blend of a good match into the template (0: the clicked template
-    only); ``update_score``: a match good enough to update the template."""
+    only); ``update_score``: a match good enough to update the template; ``recut_score``:
+    a match below it (and at least ``lost_score``) replaces the template by the patch
+    there (None: never; Kinovea's default re-cuts so); ``recut_lost``: a point below
+    ``lost_score`` is not lost but found at its best match, whose patch becomes the
+    template (a tracker that never lets go: behind a frame member it takes the member)."""
 
     search_px: float = 6.0
     speed_factor: float = 0.75
@@ -42,6 +50,8 @@ class TrackerSettings:
     lost_score: float = 0.8
     update_rate: float = 0.0
     update_score: float = 0.8
+    recut_score: float | None = None
+    recut_lost: bool = False
 
 
 def template_half_size(marker_px: float) -> int:
@@ -130,11 +140,21 @@ def track_points(frames: Iterable[np.ndarray], clicks: np.ndarray, marker_px: fl
                 p.lost += 1
                 continue
             here[i], score[i] = found
-            if score[i] >= settings.lost_score:
+            if settings.recut_lost and score[i] < settings.lost_score:
+                patch = _patch(image, np.round(here[i] - p.offset).astype(int), half)
+                if patch is not None:
+                    p.template = patch
+                p.velocity = (here[i] - p.good) / (p.lost + 1)
+                p.good, p.lost = here[i], 0
+            elif score[i] >= settings.lost_score:
                 p.velocity = (here[i] - p.good) / (p.lost + 1)
                 p.good = here[i]
                 p.lost = 0
-                if settings.update_rate > 0 and score[i] >= settings.update_score:
+                if settings.recut_score is not None and score[i] < settings.recut_score:
+                    patch = _patch(image, np.round(here[i] - p.offset).astype(int), half)
+                    if patch is not None:
+                        p.template = patch
+                elif settings.update_rate > 0 and score[i] >= settings.update_score:
                     patch = _patch(image, np.round(here[i] - p.offset).astype(int), half)
                     if patch is not None:
                         p.template = ((1 - settings.update_rate) * p.template

@@ -25,21 +25,56 @@ void treb_model_reset(TrebModel *m)
     treb_model_new(m, cosim);
 }
 
-static void publish(TrebModel *m, int phase, const double *out)
+/* n numbers named from value reference first on: -1 (and why in msg) if one is not finite. */
+static int finite_values(const double *v, int n, int first, double t, const char *what,
+                         char *msg)
 {
+    for (int j = 0; j < n; j++) {
+        if (!isfinite(v[j])) {
+            snprintf(msg, TREB_MSG, "the %s at t = %.9g s are not finite (%s = %g): the "
+                     "parameters or states lie outside what the model can compute", what, t,
+                     TREB_VAR_NAME[first + j], v[j]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* The outputs of phase into values; -1 if one is not finite (none is published then). A dry
+ * fire has no projectile: its position and velocity are NaN by definition (as the
+ * simulator's), every other output must be finite. */
+static int publish(TrebModel *m, int phase, const double *out, char *msg)
+{
+    int dry = m->shot.sc.projectile == 3;
+    for (int j = 0; j < TREB_N_OUTPUTS; j++) {
+        if (!isfinite(out[j]) && !(dry && (j == TREB_OUT_x_m || j == TREB_OUT_y_m
+                                           || j == TREB_OUT_vx_m || j == TREB_OUT_vy_m))) {
+            finite_values(out + j, 1, TREB_VR_FIRST_OUTPUT + j, m->time, "outputs", msg);
+            return -1;
+        }
+    }
     m->values[TREB_VR_phase] = phase;
     for (int j = 0; j < TREB_N_OUTPUTS; j++) m->values[TREB_VR_FIRST_OUTPUT + j] = out[j];
     m->outputs_valid = 1;
+    return 0;
 }
 
-int treb_model_exit_init(TrebModel *m, double start_time, char *msg)
+int treb_model_check_start(double start_time, char *msg)
 {
-    TrebScene sc;
-    if (start_time < 0.0) {
+    if (!(start_time >= 0.0 && start_time < TREB_HORIZON)) {
         snprintf(msg, TREB_MSG, "start time = %g s: the FMU's time is the time after the "
-                 "trigger and starts at 0 or later", start_time);
+                 "trigger: it starts at 0 or later, before the FMU's horizon of %g s",
+                 start_time, TREB_HORIZON);
         return -1;
     }
+    return 0;
+}
+
+/* The start of a shot or of a model exchange; on failure the model holds no shot. */
+static int start_model(TrebModel *m, double start_time, char *msg)
+{
+    TrebScene sc;
+    if (treb_model_check_start(start_time, msg)) return -1;
     if (treb_scene_from_values(m->values, &sc, msg)) return -1;
     m->time = start_time;
     m->command_prev = m->values[TREB_VR_release_command] != 0.0;
@@ -66,10 +101,31 @@ int treb_model_exit_init(TrebModel *m, double start_time, char *msg)
     return treb_model_outputs(m, msg);
 }
 
+int treb_model_exit_init(TrebModel *m, double start_time, char *msg)
+{
+    if (start_model(m, start_time, msg) == 0) return 0;
+    treb_shot_free(&m->shot);  /* a failed start leaves nothing half made */
+    m->initialized = 0;
+    m->phase = 0;
+    return -1;
+}
+
 int treb_model_step(TrebModel *m, double t, double h, char *msg)
 {
     int status = 0, command = m->values[TREB_VR_release_command] != 0.0;
+    double end = t + h;
     msg[0] = '\0';
+    if (!isfinite(t) || !isfinite(h) || t < 0.0 || h < 0.0) {
+        snprintf(msg, TREB_MSG, "fmiDoStep: communication point %g s, step %g s: both must be "
+                 "finite, the point 0 or later, the step 0 or more", t, h);
+        return -1;
+    }
+    if (t > TREB_HORIZON) {
+        snprintf(msg, TREB_MSG, "fmiDoStep: communication point %g s lies beyond the FMU's "
+                 "horizon of %g s after the trigger", t, TREB_HORIZON);
+        return -1;
+    }
+    if (end > TREB_HORIZON) end = TREB_HORIZON;
     if (command && !m->command_prev) {
         int r = treb_shot_command(&m->shot, t, msg);
         if (r < 0) return -1;
@@ -79,13 +135,61 @@ int treb_model_step(TrebModel *m, double t, double h, char *msg)
     double out[TREB_N_OUTPUTS];
     int phase;
     char err[TREB_MSG];
-    if (treb_shot_outputs(&m->shot, t + h, &phase, out, err)) {
+    if (treb_shot_outputs(&m->shot, end, &phase, out, err)) {
         memcpy(msg, err, TREB_MSG);
         return -1;
     }
-    m->time = t + h;
-    publish(m, phase, out);
+    m->time = end;
+    if (publish(m, phase, out, msg)) return -1;
+    if (end < t + h) {
+        snprintf(msg, TREB_MSG, "fmiDoStep: t + h = %g s lies beyond the FMU's horizon of %g s "
+                 "after the trigger (a shot is released by then or refused): the FMU stopped "
+                 "there; its outputs are those at %g s", t + h, TREB_HORIZON, TREB_HORIZON);
+        return 2;
+    }
     return status;
+}
+
+int treb_model_set_value(TrebModel *m, int vr, double value, char *msg)
+{
+    if (!isfinite(value)) {
+        snprintf(msg, TREB_MSG, "FMU parameters: %s = %g: must be finite", TREB_VAR_NAME[vr],
+                 value);
+        return -1;
+    }
+    if (TREB_VAR_TYPE[vr] != TREB_REAL && treb_parameter_check(vr, value, msg)) return -1;
+    m->values[vr] = value;
+    return 0;
+}
+
+int treb_model_set_time(TrebModel *m, double t, char *msg)
+{
+    if (!isfinite(t) || t < 0.0) {
+        snprintf(msg, TREB_MSG, "fmiSetTime: t = %g s: the time must be finite and 0 or later "
+                 "(the time after the trigger)", t);
+        return -1;
+    }
+    m->time = t;
+    m->outputs_valid = 0;
+    return 0;
+}
+
+int treb_model_set_states(TrebModel *m, const double *x, char *msg)
+{
+    if (finite_values(x, TREB_NX_STATES, TREB_VR_theta, m->time, "continuous states", msg))
+        return -1;
+    memcpy(m->x, x, sizeof m->x);
+    m->outputs_valid = 0;
+    return 0;
+}
+
+int treb_model_past_horizon(const TrebModel *m, char *msg)
+{
+    if (m->time < TREB_HORIZON) return 0;
+    snprintf(msg, TREB_MSG, "t = %g s: the FMU's horizon of %g s after the trigger is reached "
+             "(a shot is released by then or refused): the simulation ends here", m->time,
+             TREB_HORIZON);
+    return 1;
 }
 
 /* The model exchange's phase state as the generated functions take it: the phase's angles and
@@ -107,6 +211,14 @@ static void phase_state(const TrebModel *m, double *y)
     }
 }
 
+/* Model exchange needs an initialised model (the scene exists from then on). */
+static int initialised(const TrebModel *m, char *msg)
+{
+    if (m->initialized) return 1;
+    snprintf(msg, TREB_MSG, "the model is evaluated after fmiExitInitializationMode only");
+    return 0;
+}
+
 int treb_model_outputs(TrebModel *m, char *msg)
 {
     if (m->outputs_valid) return 0;
@@ -114,30 +226,36 @@ int treb_model_outputs(TrebModel *m, char *msg)
         double out[TREB_N_OUTPUTS];
         int phase;
         if (treb_shot_outputs(&m->shot, m->time, &phase, out, msg)) return -1;
-        publish(m, phase, out);
-        return 0;
+        return publish(m, phase, out, msg);
     }
+    if (!initialised(m, msg)) return -1;
     double y[TREB_MAXN], out[TREB_N_OUTPUTS];
     phase_state(m, y);
     treb_outputs_of(&m->shot.sc, m->phase, y, out);
     if (m->phase == 3 && m->shot.sc.projectile != 3) {
         double f[5];
+        if (m->shot.sc.drag && !(m->time <= TREB_HORIZON)) {  /* integrated: bounded */
+            snprintf(msg, TREB_MSG, "the projectile's flight with drag at t = %g s: beyond the "
+                     "FMU's horizon of %g s after the trigger", m->time, TREB_HORIZON);
+            return -1;
+        }
         treb_flight_at(&m->shot, m->time, f);
         out[TREB_OUT_x_m] = f[0]; out[TREB_OUT_y_m] = f[1];
         out[TREB_OUT_vx_m] = f[2]; out[TREB_OUT_vy_m] = f[3]; out[TREB_OUT_E_m] = f[4];
     }
-    publish(m, m->phase, out);
-    return 0;
+    return publish(m, m->phase, out, msg);
 }
 
-void treb_model_derivatives(TrebModel *m, double *dx)
+int treb_model_derivatives(TrebModel *m, double *dx, char *msg)
 {
     double y[TREB_MAXN], out[TREB_N_OUTPUTS];
+    if (!initialised(m, msg)) return -1;
     phase_state(m, y);
     treb_outputs_of(&m->shot.sc, m->phase, y, out);
     dx[0] = out[TREB_OUT_theta_d]; dx[1] = out[TREB_OUT_psi_d]; dx[2] = out[TREB_OUT_phi_d];
     dx[3] = out[TREB_OUT_theta_dd]; dx[4] = out[TREB_OUT_psi_dd]; dx[5] = out[TREB_OUT_phi_dd];
     dx[6] = out[TREB_OUT_P_loss_pivot]; dx[7] = out[TREB_OUT_P_loss_hinge];
+    return finite_values(dx, TREB_NX_STATES, TREB_VR_theta_d, m->time, "derivatives", msg);
 }
 
 /* Phase I: lift-off margin F_N/(m g), sling upright margin; phase II: projectile height
@@ -190,6 +308,20 @@ static void jacobian_friction(TrebModel *m, double J[TREB_N_OUTPUTS][TREB_NX_STA
         m->x[j] = x0[j];
         for (int i = 0; i < TREB_N_OUTPUTS; i++) J[i][j] = (up[i] - down[i]) / (2.0 * h);
     }
+}
+
+int treb_model_event_indicators(TrebModel *m, double *z, char *msg)
+{
+    if (!initialised(m, msg)) return -1;
+    treb_model_indicators(m, z);
+    for (int k = 0; k < TREB_NZ; k++) {
+        if (!isfinite(z[k])) {
+            snprintf(msg, TREB_MSG, "the event indicator %d at t = %.9g s is not finite (%g): "
+                     "the states lie outside what the model can compute", k, m->time, z[k]);
+            return -1;
+        }
+    }
+    return 0;
 }
 
 /* d(outputs)/d(x) at the model exchange's state (generated Jacobian of the phase; the
@@ -262,6 +394,11 @@ int treb_model_directional(TrebModel *m, const unsigned *unknowns, size_t n_unkn
         }
         double acc = 0.0;
         for (size_t k = 0; k < n_knowns; k++) acc += J[i][state_index(knowns[k])] * seed[k];
+        if (!isfinite(acc)) {
+            snprintf(msg, TREB_MSG, "directional derivative of %s: not finite (seeds or states "
+                     "outside what the model can compute)", TREB_VAR_NAME[unknowns[u]]);
+            return -1;
+        }
         sensitivity[u] = acc;
     }
     return 0;
@@ -339,6 +476,10 @@ int treb_model_event(TrebModel *m, int *states_changed, int *time_defined, doubl
     m->command_prev = command;
     *time_defined = m->phase == 2 && sc->has_time && m->time < sc->t_release;
     *next_time = sc->t_release;
+    if (!*time_defined && m->time < TREB_HORIZON) {  /* the horizon: the run ends there */
+        *time_defined = 1;
+        *next_time = TREB_HORIZON;
+    }
     treb_model_indicators(m, m->z_ref);
     m->outputs_valid = 0;
     return status;
@@ -350,29 +491,78 @@ int treb_model_copy(TrebModel *dst, const TrebModel *src)
     return treb_shot_copy(&dst->shot, &src->shot);
 }
 
-size_t treb_model_serialized_size(const TrebModel *m)
+
+/* ------------------------------------------------------------------ checks of a read model */
+
+static int bad(char *msg, const char *what)
 {
-    return sizeof(TrebModel) + treb_shot_serialized_size(&m->shot);
+    snprintf(msg, TREB_MSG, "%s", what);
+    return -1;
 }
 
-void treb_model_serialize(const TrebModel *m, unsigned char *buf)
+#define SAME(a, b, field) (memcmp(&(a)->field, &(b)->field, sizeof (a)->field) == 0)
+
+/* The shot's scene is the one of its parameters (a release command may have set the time
+ * rule in co-simulation): every number bit for bit. */
+static int same_scene(const TrebScene *a, const TrebScene *b, int cosim)
 {
-    TrebModel head = *m;
-    memset(&head.shot, 0, sizeof head.shot);
-    memcpy(buf, &head, sizeof head);
-    treb_shot_serialize(&m->shot, buf + sizeof head);
+    int release = SAME(a, b, has_time) && SAME(a, b, t_release);
+    if (!release && cosim)
+        release = a->has_time == 1 && isfinite(a->t_release) && a->t_release > 0.0;
+    return release && SAME(a, b, q) && SAME(a, b, fixed) && SAME(a, b, projectile)
+           && SAME(a, b, drag) && SAME(a, b, theta) && SAME(a, b, psi) && SAME(a, b, phi)
+           && SAME(a, b, has_angle) && SAME(a, b, angle) && SAME(a, b, diameter)
+           && SAME(a, b, drag_coefficient) && SAME(a, b, air_density) && SAME(a, b, rest)
+           && SAME(a, b, k_drag) && SAME(a, b, friction) && SAME(a, b, rtol)
+           && SAME(a, b, bounded) && SAME(a, b, after_release);
 }
 
-int treb_model_deserialize(TrebModel *m, const unsigned char *buf, size_t size)
+static int check_values(const TrebModel *m, char *msg)
 {
-    TrebModel head;
-    if (size < sizeof head) return -1;
-    memcpy(&head, buf, sizeof head);
-    TrebShot shot;
-    treb_shot_init_empty(&shot);
-    if (treb_shot_deserialize(&shot, buf + sizeof head, size - sizeof head)) return -1;
-    treb_model_free(m);
-    *m = head;
-    m->shot = shot;
+    for (int vr = 0; vr < TREB_NV; vr++) {
+        double v = m->values[vr];
+        int dry = m->shot.sc.projectile == 3 && (vr == TREB_VR_x_m || vr == TREB_VR_y_m
+                                                 || vr == TREB_VR_vx_m || vr == TREB_VR_vy_m);
+        if (!isfinite(v) && !(dry && isnan(v)))
+            return bad(msg, "a variable's value is not a finite number");
+        if (TREB_VAR_CAUSALITY[vr] != TREB_OUTPUT && TREB_VAR_TYPE[vr] != TREB_REAL
+            && !(v >= TREB_VAR_MIN[vr] && v <= TREB_VAR_MAX[vr] && v == floor(v)))
+            return bad(msg, "a choice or the release command lies out of range");
+    }
+    double phase = m->values[TREB_VR_phase];
+    if (!(phase == 0.0 || phase == 1.0 || phase == 2.0 || phase == 3.0))
+        return bad(msg, "the phase output lies out of range");
     return 0;
+}
+
+int treb_model_check(const TrebModel *m, int cosim, int complete, char *msg)
+{
+    TrebScene sc, zero;
+    if (m->cosim != cosim)
+        return bad(msg, cosim ? "a state of model exchange, not co-simulation"
+                              : "a state of co-simulation, not model exchange");
+    if ((m->initialized != 0 && m->initialized != 1) || (m->command_prev != 0
+                                                         && m->command_prev != 1))
+        return bad(msg, "a flag is neither 0 nor 1");
+    if (check_values(m, msg)) return -1;
+    if (!isfinite(m->time) || m->time < 0.0 || (cosim && m->time > TREB_HORIZON))
+        return bad(msg, "the time lies out of range");
+    for (int k = 0; k < TREB_NX_STATES; k++)
+        if (!isfinite(m->x[k])) return bad(msg, "a continuous state is not a finite number");
+    for (int k = 0; k < TREB_NZ; k++)
+        if (!isfinite(m->z_ref[k])) return bad(msg, "an event indicator is not finite");
+    memset(&zero, 0, sizeof zero);
+    if (!m->initialized) {
+        if (m->phase != 0 || !same_scene(&m->shot.sc, &zero, 0) || m->shot.n_phases != 0
+            || m->shot.steps.n != 0 || m->shot.flight.n != 0 || m->shot.flight_started != 0)
+            return bad(msg, "a state before initialisation holds a shot");
+        return 0;
+    }
+    if (treb_scene_from_values(m->values, &sc, msg)) return -1;
+    if (!same_scene(&m->shot.sc, &sc, cosim))
+        return bad(msg, "the shot's scene is not the one its parameters give");
+    int first = sc.projectile;  /* 1 trough, 2 sling, 3 none: the first phase */
+    if (!cosim && (m->phase < first || m->phase > 3))
+        return bad(msg, "the model exchange's phase lies out of range");
+    return treb_shot_check(&m->shot, cosim, complete, msg);
 }

@@ -120,13 +120,79 @@ static int friction(const double *v, TrebScene *sc, char *msg)
     return 0;
 }
 
+/* The smallest values the FMU takes, beside the declared ranges: below them lengths, masses
+ * and gravity stop meaning an engine (and 1/L or 1/m overflow to inf). */
+static const struct { int vr; double floor; } FLOORS[] = {
+    {TREB_VR_engine_L1, 1e-3}, {TREB_VR_engine_L2, 1e-3}, {TREB_VR_engine_L3, 1e-3},
+    {TREB_VR_engine_L4, 1e-3}, {TREB_VR_engine_m_b, 1e-3}, {TREB_VR_engine_M, 1e-3},
+    {TREB_VR_engine_m, 1e-3}, {TREB_VR_environment_g, 1e-2},
+};
+
+/* "[section] key" of a variable's name "section.key". */
+static void key_of(int vr, char *out, size_t n)
+{
+    const char *name = TREB_VAR_NAME[vr], *dot = strchr(name, '.');
+    if (dot) snprintf(out, n, "[%.*s] %s", (int)(dot - name), name, dot + 1);
+    else snprintf(out, n, "%s", name);
+}
+
+int treb_parameter_check(int vr, double value, char *msg)
+{
+    char where[64], problem[256];
+    if (vr < 0 || vr >= TREB_NV) return fail(msg, "value reference", "out of range");
+    double lo = TREB_VAR_MIN[vr], hi = TREB_VAR_MAX[vr];
+    int choice = TREB_VAR_TYPE[vr] == TREB_ENUMERATION || TREB_VAR_TYPE[vr] == TREB_INTEGER
+                 || TREB_VAR_TYPE[vr] == TREB_BOOLEAN;
+    if (isfinite(value) && value >= lo && value <= hi && (!choice || value == floor(value))) {
+        int low = 0;  /* the common case, checked without formatting anything */
+        for (size_t k = 0; k < sizeof FLOORS / sizeof FLOORS[0]; k++)
+            low |= FLOORS[k].vr == vr && value > 0.0 && value < FLOORS[k].floor;
+        if (!low) return 0;
+    }
+    const char *unit = TREB_VAR_UNIT[vr];
+    key_of(vr, where, sizeof where);
+    if (!isfinite(value)) {
+        snprintf(problem, sizeof problem, "must be finite, got %g", value);
+        return fail(msg, where, problem);
+    }
+    if (choice) {
+        if (!(value >= lo && value <= hi && value == floor(value))) {
+            snprintf(problem, sizeof problem, "= %.17g: must be one of the choices %g to %g",
+                     value, lo, hi);
+            return fail(msg, where, problem);
+        }
+        return 0;
+    }
+    const char *space = unit[0] ? " " : "";
+    if (!(value >= lo && value <= hi)) {
+        snprintf(problem, sizeof problem, "= %g%s%s: must lie between %g and %g%s%s (the range "
+                 "in modelDescription.xml)", value, space, unit, lo, hi, space, unit);
+        return fail(msg, where, problem);
+    }
+    for (size_t k = 0; k < sizeof FLOORS / sizeof FLOORS[0]; k++) {
+        if (FLOORS[k].vr == vr && value > 0.0 && value < FLOORS[k].floor) {
+            snprintf(problem, sizeof problem, "= %g%s%s: below %g%s%s, the smallest the FMU "
+                     "takes", value, space, unit, FLOORS[k].floor, space, unit);
+            return fail(msg, where, problem);
+        }
+    }
+    return 0;
+}
+
+/* An Enumeration's value as its choice 1..n, or 0 (checked before any cast to int). */
+static int choice(const double *v, int vr, int n)
+{
+    double x = v[vr];
+    return x >= 1.0 && x <= n && x == floor(x) ? (int)x : 0;
+}
+
 int treb_scene_from_values(const double *v, TrebScene *sc, char *msg)
 {
     double L1, L2, L3, L4, m_b, M, m, L_CM, I, H, g, x;
     char problem[256];
     memset(sc, 0, sizeof *sc);
-    sc->projectile = (int)v[TREB_VR_start_projectile];
-    if (sc->projectile < 1 || sc->projectile > 3)
+    sc->projectile = choice(v, TREB_VR_start_projectile, 3);
+    if (!sc->projectile)
         return fail(msg, "[start] projectile", "must be 1 (trough), 2 (sling) or 3 (none)");
     if (positive(v, TREB_VR_engine_L1, "[engine] L1", "length in m", msg, &L1)
         || positive(v, TREB_VR_engine_L2, "[engine] L2", "length in m", msg, &L2)
@@ -167,8 +233,8 @@ int treb_scene_from_values(const double *v, TrebScene *sc, char *msg)
                  m_b * L_CM);
         return fail(msg, "[engine] M", problem);
     }
-    int mount = (int)v[TREB_VR_engine_counterweight];
-    if (mount < 1 || mount > 2)
+    int mount = choice(v, TREB_VR_engine_counterweight, 2);
+    if (!mount)
         return fail(msg, "[engine] counterweight", "must be 1 (hinged) or 2 (fixed)");
     if (number(v, TREB_VR_start_theta_deg, "[start] theta_deg", msg, &x)) return -1;
     sc->theta = x * DEG;
@@ -218,8 +284,8 @@ int treb_scene_from_values(const double *v, TrebScene *sc, char *msg)
     if (positive(v, TREB_VR_environment_g, "[environment] g", "acceleration in m/s²", msg, &g))
         return -1;
     q[TREB_Q_g] = g;
-    int model = (int)v[TREB_VR_flight_model];
-    if (model < 1 || model > 2)
+    int model = choice(v, TREB_VR_flight_model, 2);
+    if (!model)
         return fail(msg, "[flight] model", "must be 1 (vacuum) or 2 (drag)");
     sc->drag = model == 2;
     if (sc->drag
@@ -231,5 +297,8 @@ int treb_scene_from_values(const double *v, TrebScene *sc, char *msg)
                         "density in kg/m³", msg, &sc->air_density)))
         return -1;
     if (friction(v, sc, msg)) return -1;
+    for (int vr = 0; vr < TREB_NV; vr++)  /* the scene's rules passed: each value's range */
+        if (TREB_VAR_CAUSALITY[vr] == TREB_PARAMETER && treb_parameter_check(vr, v[vr], msg))
+            return -1;
     return treb_scene_rest(sc);
 }

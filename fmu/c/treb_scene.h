@@ -11,4 +11,9 @@
  * booleans as numbers. Returns 0, or -1 with the message in msg (TREB_MSG bytes). */
 int treb_scene_from_values(const double *values, TrebScene *sc, char *msg);
 
+/* One parameter's value on its own (where it is set): a number in the range
+ * modelDescription.xml declares (an Enumeration's choices), and not below the smallest
+ * length, mass or gravity the FMU takes (treb_scene.c). 0, or -1 with the message in msg. */
+int treb_parameter_check(int vr, double value, char *msg);
+
 #endif

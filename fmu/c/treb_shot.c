@@ -394,6 +394,7 @@ static int dop_step(TrebDop *d, TrebStep *st, double *t_event, double *y_event, 
 
 static int push(TrebSteps *s, const TrebStep *st)
 {
+    if (s->n >= TREB_MAX_STEPS) return -1;  /* the budget: see treb_shot.h */
     if (s->n == s->cap) {
         int cap = s->cap ? 2 * s->cap : 256;
         TrebStep *data = realloc(s->data, (size_t)cap * sizeof(TrebStep));
@@ -507,6 +508,15 @@ static int failed(char *msg, const char *what)
     return -1;
 }
 
+/* A phase that outgrew TREB_MAX_STEPS (or the memory). */
+static int no_room(char *msg, const char *what)
+{
+    snprintf(msg, TREB_MSG, "FMU parameters: the integration of %s needs more than %d steps "
+             "(the FMU's budget) or more memory than there is: the engine is too stiff for "
+             "the FMU (a sling or an arm far shorter than the others?)", what, TREB_MAX_STEPS);
+    return -1;
+}
+
 /* Phase II from its start (saved in s) with the scene's release rules; then phase III. */
 static int sling_and_after(TrebShot *s, char *msg)
 {
@@ -519,7 +529,8 @@ static int sling_and_after(TrebShot *s, char *msg)
     double t_stop = sc->has_angle ? TREB_MAX_SHOT : fmin(t_rel, TREB_MAX_SHOT);
     PhaseEnd pe;
     double first = s->p2_first_step > 0.0 ? fmin(s->p2_first_step, t_stop - s->p2_t0) : 0.0;
-    if (run_phase(s, 2, s->p2_t0, t_stop, s->p2_y, first, nev, ev, par, &pe)) return -2;
+    if (run_phase(s, 2, s->p2_t0, t_stop, s->p2_y, first, nev, ev, par, &pe))
+        return no_room(msg, PHASE_NAME[2]);
     if (pe.status < 0) return failed(msg, PHASE_NAME[2]);
     if (pe.status == 1 && pe.which == 0) {
         if (sc->has_time)
@@ -577,7 +588,8 @@ int treb_shot_start(TrebShot *s, const TrebScene *sc, char *msg)
         int ev[2] = {TREB_LIFT_OFF, TREB_SLING_UPRIGHT};
         double par[2] = {0.0, 0.0};
         PhaseEnd pe;
-        if (run_phase(s, 1, 0.0, TREB_MAX_SHOT, beam, 0.0, 2, ev, par, &pe)) return -2;
+        if (run_phase(s, 1, 0.0, TREB_MAX_SHOT, beam, 0.0, 2, ev, par, &pe))
+            return no_room(msg, PHASE_NAME[1]);
         if (pe.status < 0) return failed(msg, PHASE_NAME[1]);
         if (pe.status != 1) {
             snprintf(msg, TREB_MSG, "FMU parameters: [engine] the projectile did not lift off "
@@ -693,19 +705,24 @@ void treb_flight_at(TrebShot *s, double t, double *out)
  * at an event) into y; returns that index, or -1 (-2: out of memory) with msg. */
 int treb_shot_state(TrebShot *s, int k, double t, double *y, char *msg)
 {
+    if (s->n_phases < 1 || !(t <= (s->sc.bounded ? INFINITY : TREB_HORIZON))) {
+        snprintf(msg, TREB_MSG, "the outputs at t = %g s: %s", t, s->n_phases < 1
+                 ? "the shot is not initialised" : "beyond the FMU's horizon");
+        return -1;
+    }
     if (k < 0) {
         k = 0;
         while (k < s->n_phases - 1 && t > s->t1[k]) k++;
     }
     int last = s->n_phases - 1;
-    if (k == last) {  /* the open phase: integrate on to t (or to its bound) */
+    if (k == last && s->phase[k] == 3) {  /* the open phase: integrate on to t (or its bound) */
         TrebStep st;
         double te, ye[TREB_MAXN];
         int which;
         while (s->open.t < t && s->open.t < s->open.t_bound) {
             if (dop_step(&s->open, &st, &te, ye, &which) == STEP_FAILED)
                 return failed(msg, PHASE_NAME[3]);
-            if (push(&s->steps, &st)) return -2;
+            if (push(&s->steps, &st)) return no_room(msg, PHASE_NAME[3]);
         }
     }
     int count = (k == last ? s->steps.n : s->first[k + 1]) - s->first[k];
@@ -805,35 +822,172 @@ void treb_shot_serialize(const TrebShot *s, unsigned char *buf)
     if (s->flight.n) memcpy(buf, s->flight.data, (size_t)s->flight.n * sizeof(TrebStep));
 }
 
-int treb_shot_deserialize(TrebShot *s, const unsigned char *buf, size_t size)
+static TrebStep *steps_from(const unsigned char *buf, int n)
+{
+    TrebStep *a = malloc(n ? (size_t)n * sizeof(TrebStep) : 1);
+    if (a && n) memcpy(a, buf, (size_t)n * sizeof(TrebStep));
+    return a;
+}
+
+/* The shot of buf (size bytes exactly): its counts are checked here, the rest by
+ * treb_shot_check. The pointers of the bytes are never used. */
+int treb_shot_deserialize(TrebShot *s, const unsigned char *buf, size_t size, char *msg)
 {
     TrebShot head;
-    if (size < sizeof head) return -1;
-    memcpy(&head, buf, sizeof head);
-    if (head.steps.n < 0 || head.flight.n < 0
-        || size != sizeof head + (size_t)(head.steps.n + head.flight.n) * sizeof(TrebStep))
+    if (size < sizeof head) {
+        snprintf(msg, TREB_MSG, "the shot is cut short (%lu bytes)", (unsigned long)size);
         return -1;
-    TrebShot view = head;
-    view.steps.data = (TrebStep *)(void *)(buf + sizeof head);  /* copied below */
-    view.flight.data = (TrebStep *)(void *)(buf + sizeof head
-                                            + (size_t)head.steps.n * sizeof(TrebStep));
-    TrebStep *a = NULL, *b = NULL;
-    if (head.steps.n) {
-        a = malloc((size_t)head.steps.n * sizeof(TrebStep));
-        if (!a) return -1;
-        memcpy(a, view.steps.data, (size_t)head.steps.n * sizeof(TrebStep));
     }
-    if (head.flight.n) {
-        b = malloc((size_t)head.flight.n * sizeof(TrebStep));
-        if (!b) { free(a); return -1; }
-        memcpy(b, view.flight.data, (size_t)head.flight.n * sizeof(TrebStep));
+    memcpy(&head, buf, sizeof head);
+    int n = head.steps.n, nf = head.flight.n;
+    if (n < 0 || n > TREB_MAX_STEPS || nf < 0 || nf > TREB_MAX_STEPS) {
+        snprintf(msg, TREB_MSG, "the shot's step counts (%d, %d) lie outside 0..%d", n, nf,
+                 TREB_MAX_STEPS);
+        return -1;
+    }
+    size_t need = sizeof head + ((size_t)n + (size_t)nf) * sizeof(TrebStep);
+    if (size != need) {
+        snprintf(msg, TREB_MSG, "the shot's %d + %d steps need %lu bytes, the state has %lu",
+                 n, nf, (unsigned long)need, (unsigned long)size);
+        return -1;
+    }
+    TrebStep *a = steps_from(buf + sizeof head, n);
+    TrebStep *b = steps_from(buf + sizeof head + (size_t)n * sizeof(TrebStep), nf);
+    if (!a || !b) {
+        free(a);
+        free(b);
+        snprintf(msg, TREB_MSG, "out of memory");
+        return -1;
     }
     free(s->steps.data);
     free(s->flight.data);
     *s = head;
     s->steps.data = a;
-    s->steps.cap = head.steps.n;
+    s->steps.cap = n;
     s->flight.data = b;
-    s->flight.cap = head.flight.n;
+    s->flight.cap = nf;
     return 0;
+}
+
+/* ------------------------------------------------------------------ checks of a read shot */
+
+static int all_finite(const double *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+static int bad(char *msg, const char *what)
+{
+    snprintf(msg, TREB_MSG, "%s", what);
+    return -1;
+}
+
+/* The states of a phase that are checked to be finite: those run_phase and
+ * treb_shot_outputs use today. Memory stays safe whatever they become (every array has
+ * TREB_MAXN entries, and a size is only checked to lie in 1..TREB_MAXN); a state the check
+ * misses gives a non-finite output, which is refused where it is computed. */
+static int checked_states(const TrebScene *sc, int phase)
+{
+    int n = treb_state_size(sc, phase);  /* with friction: the two lost energies too */
+    return n < TREB_MAXN ? n : TREB_MAXN;
+}
+
+/* An integration read from bytes: kinds, sizes and numbers in range, the scene's q. */
+static int check_dop(const TrebDop *d, const TrebScene *sc, int kind, char *msg)
+{
+    if (d->kind != kind || d->n < 1 || d->n > TREB_MAXN || d->fixed != sc->fixed)
+        return bad(msg, "an integration's kind or size is not the phase's");
+    if (memcmp(d->q, sc->q, sizeof d->q) != 0 || memcmp(&d->k_drag, &sc->k_drag, sizeof
+                                                          d->k_drag) != 0)
+        return bad(msg, "an integration's parameters are not the scene's");
+    int drag = kind == TREB_DRAG_FLIGHT;
+    double rtol = sc->rtol > 0.0 ? sc->rtol : RTOL;  /* the scene's (in process) or the FMU's */
+    if (d->rtol != (drag ? FLIGHT_RTOL : rtol) || d->atol != (drag ? FLIGHT_ATOL : rtol * 1e-2))
+        return bad(msg, "an integration's tolerances are not the FMU's");
+    if (d->nev < 0 || d->nev > TREB_MAXEV) return bad(msg, "an event count lies out of range");
+    for (int j = 0; j < d->nev; j++) {
+        int k = d->ev_kind[j];
+        if (k < TREB_LIFT_OFF || k > TREB_RELEASE_ANGLE || d->ev_dir[j] != DIRECTION[k]
+            || !isfinite(d->ev_par[j]) || !isfinite(d->g_old[j]))
+            return bad(msg, "an event's kind or numbers lie out of range");
+    }
+    if (!isfinite(d->t) || !(d->t_bound >= d->t) || !isfinite(d->h_abs) || d->h_abs < 0.0
+        || !all_finite(d->y, d->n) || !all_finite(d->f, d->n) || d->nfev < 0)
+        return bad(msg, "an integration's time, step or state is not a finite number");
+    return 0;
+}
+
+/* Steps [first, end) of a phase with n states: finite, forward, in time order. */
+static int check_steps(const TrebSteps *s, int first, int end, int n, char *msg)
+{
+    for (int i = first; i < end; i++) {
+        const TrebStep *st = &s->data[i];
+        if (!isfinite(st->t) || !isfinite(st->h) || !(st->h > 0.0) || !all_finite(st->y, n))
+            return bad(msg, "a step's time, size or state is not a finite number");
+        for (int p = 0; p < TREB_NP; p++)
+            if (!all_finite(st->F[p], n)) return bad(msg, "a step's polynomial is not finite");
+        if (i > first && !(st->t > s->data[i - 1].t))
+            return bad(msg, "the steps are not in time order");
+    }
+    return 0;
+}
+
+/* Phases: kinds in order, first steps ascending, times joined, the open phase III. */
+static int check_phases(const TrebShot *s, char *msg)
+{
+    int last = s->n_phases - 1;
+    for (int k = 0; k <= last; k++) {
+        int end = k < last ? s->first[k + 1] : s->steps.n;
+        if (s->phase[k] < 1 || s->phase[k] > 3 || (k > 0 && s->phase[k] != s->phase[k - 1] + 1))
+            return bad(msg, "a phase's kind lies out of range or order");
+        if ((k == 0 && s->first[k] != 0) || s->first[k] < 0 || end < s->first[k]
+            || end > s->steps.n)
+            return bad(msg, "a phase's first step lies out of range");
+        if (!isfinite(s->t0[k]) || (k < last && !(s->t1[k] == s->t0[k + 1]))
+            || (k == last && s->phase[k] == 3 && s->t1[k] != INFINITY)
+            || (s->phase[k] != 3 && !isfinite(s->t1[k])))
+            return bad(msg, "a phase's times are not joined");
+        if (check_steps(&s->steps, s->first[k], end, checked_states(&s->sc, s->phase[k]), msg))
+            return -1;
+    }
+    if (last >= 0 && s->phase[last] == 3) {
+        if (check_dop(&s->open, &s->sc, 3, msg)) return -1;
+        if (!(s->open.t >= s->t0[last])) return bad(msg, "phase III starts after its end");
+    }
+    return 0;
+}
+
+int treb_shot_check(const TrebShot *s, int cosim, int complete, char *msg)
+{
+    const TrebScene *sc = &s->sc;
+    if (s->n_phases < 0 || s->n_phases > 3 || s->steps.n < 0 || s->steps.n > TREB_MAX_STEPS
+        || s->flight.n < 0 || s->flight.n > TREB_MAX_STEPS)
+        return bad(msg, "a count of phases or steps lies out of range");
+    if (!cosim && (s->n_phases != 0 || s->steps.n != 0))
+        return bad(msg, "a model exchange's state holds the phases of a co-simulation");
+    if (complete) {
+        int first = sc->projectile, count = 4 - sc->projectile;
+        if (s->n_phases != count || s->phase[0] != first || s->phase[count - 1] != 3)
+            return bad(msg, "the shot's phases are not those of its scene");
+    }
+    if (check_phases(s, msg)) return -1;
+    if (sc->projectile != 3 && s->n_phases > 0
+        && (s->p2_phase_index < 0 || s->p2_phase_index >= s->n_phases
+            || s->phase[s->p2_phase_index] != 2))
+        return bad(msg, "phase II's index lies out of range");
+    if (!isfinite(s->p2_t0) || !isfinite(s->p2_first_step) || s->p2_first_step < 0.0
+        || !all_finite(s->p2_y, 6) || !all_finite(s->release, 5)
+        || (!isnan(s->t_lift) && !isfinite(s->t_lift)) || (!isnan(s->t_rel) && !isfinite(s->t_rel)))
+        return bad(msg, "an event time or the release is not a finite number");
+    if (s->flight_started != 0 && s->flight_started != 1)
+        return bad(msg, "the flight's flag is neither 0 nor 1");
+    if (s->flight.n > 0 && !s->flight_started)
+        return bad(msg, "flight steps without a flight");
+    if (s->flight_started) {
+        if (check_dop(&s->flight_dop, sc, TREB_DRAG_FLIGHT, msg)) return -1;
+        if (!(s->flight_dop.t >= s->release[0])) return bad(msg, "the flight starts after its end");
+    }
+    return check_steps(&s->flight, 0, s->flight.n, s->flight_dop.n, msg);
 }

@@ -18,6 +18,13 @@
 #define TREB_MAXN 8    /* largest state: phase II with the two lost energies of friction */
 #define TREB_MAXEV 3   /* most events at once */
 #define TREB_MAX_SHOT 60.0  /* s: a shot still in the trough or sling by then is refused */
+/* s after the trigger: the FMU's time ends here (the shot's meaningful horizon: a shot is
+ * released by TREB_MAX_SHOT or refused); a step or an output beyond it is refused. */
+#define TREB_HORIZON TREB_MAX_SHOT
+/* Accepted integration steps one shot may store (phases and the flight with drag, each): a
+ * 60 s shot of the paper's engine takes about 1,600; an engine stiffer than this budget is
+ * refused with a message instead of growing without bound (TrebStep: 400 bytes). */
+#define TREB_MAX_STEPS 100000
 #define TREB_MSG 512
 
 /* Event kinds: model/phase_events.py */
@@ -101,7 +108,12 @@ void treb_shot_free(TrebShot *s);
 int treb_shot_copy(TrebShot *dst, const TrebShot *src);
 size_t treb_shot_serialized_size(const TrebShot *s);
 void treb_shot_serialize(const TrebShot *s, unsigned char *buf);
-int treb_shot_deserialize(TrebShot *s, const unsigned char *buf, size_t size);
+int treb_shot_deserialize(TrebShot *s, const unsigned char *buf, size_t size, char *msg);
+/* A shot read from bytes, checked before use: every count, index, kind and number in range
+ * and consistent with the scene s->sc (itself checked by the caller). complete: the shot of
+ * a running co-simulation (every phase, the open phase III); else a model exchange's (no
+ * phases) or an empty or broken one. 0, or -1 with the reason in msg. */
+int treb_shot_check(const TrebShot *s, int cosim, int complete, char *msg);
 
 /* Formulas by phase and counterweight (generated), used by the model exchange too. A state y
  * of phase I or III is (theta, psi, theta_d, psi_d), of phase II (theta, psi, phi, theta_d,

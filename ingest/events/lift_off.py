@@ -8,9 +8,15 @@ the loads are too). Times in the log's time (s).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["lift_off_time", "lift_off_sd", "rest_offset", "offset_widened_sd"]
+from trebuchet.ingest.events.release_sources import covering_sd
+
+__all__ = ["lift_off_time", "lift_off_sd", "rest_offset", "offset_widened_sd",
+           "LiftOffChoice", "lift_off_choice", "gap_widened_sd", "timing_widened_sd",
+           "GAP_WINDOW_S", "LIFT_TIMING_SHARE"]
 
 
 def lift_off_time(t: np.ndarray, normal_force: np.ndarray, trigger: float | None,
@@ -77,3 +83,106 @@ def offset_widened_sd(sd: float, lift_off: float, shifted: float | None) -> floa
     if shifted is None or not np.isfinite(shifted):
         return sd
     return float(np.hypot(sd, shifted - lift_off)) if np.isfinite(sd) else abs(shifted - lift_off)
+
+
+@dataclass(frozen=True)
+class LiftOffChoice:
+    """The lift-off taken: ``time`` (s, log time) and ``sd`` (s), ``source`` (a phrase),
+    ``note`` (a sentence, or None) and ``warning`` (a sentence to warn, or None: the
+    normal force's zero and the stone's departure from the trough disagree)."""
+
+    time: float
+    sd: float
+    source: str
+    note: str | None = None
+    warning: str | None = None
+
+
+def lift_off_choice(force: float, force_sd: float, stone: float | None, stone_sd: float,
+                    agreement_sd: float = 2.0) -> LiftOffChoice:
+    """Lift-off from the normal force's zero (``force``, ``force_sd``, s), checked by the
+    stone's departure from the trough (``stone``, ``stone_sd``, s; None: not seen,
+    :mod:`.trough_departure`): the normal force's time stands; where the two disagree
+    beyond ``agreement_sd`` sd of their difference its sd widens to cover the stone's
+    (the release's rule, :func:`~.release_sources.covering_sd`) and a warning says so.
+    Not their mean: on the video bench the stone's departure came 1.6–4 frames early
+    where the normal force was within half a frame (a cubic rise out of the trough is slow,
+    and a camera model a few mm off across the trough shifts it), and averaging the two
+    where a gap had widened the force's sd moved lift-off 2.6 frames early."""
+    source = "trough normal force reaches zero"
+    if stone is None or not (np.isfinite(stone_sd) and stone_sd > 0):
+        return LiftOffChoice(force, force_sd, source)
+    sd = force_sd if np.isfinite(force_sd) and force_sd > 0 else 0.0
+    both = float(np.hypot(sd, stone_sd))
+    said = (f"the trough's normal force reaches zero at {force:.4f} s (sd {1e3 * sd:.1f} ms), "
+            f"the stone leaves the trough at {stone:.4f} s (sd {1e3 * stone_sd:.1f} ms)")
+    source = "trough normal force reaches zero, checked by the stone leaving the trough"
+    if abs(force - stone) <= agreement_sd * both:
+        return LiftOffChoice(force, force_sd, source, f"lift-off at {force:.4f} s: {said}")
+    wide = covering_sd(sd, stone - force)
+    return LiftOffChoice(force, wide, source, None,
+                         f"the lift-off sources disagree: {said}, "
+                         f"{abs(force - stone) / both:.1f} sd apart; lift-off is taken at "
+                         f"{force:.4f} s with sd {1e3 * wide:.1f} ms to cover both (the angles' "
+                         "common offset, a camera's roll, moves the normal force's zero)")
+
+#: s: an angle the normal force needs that is not tracked within this of the lift-off
+#: widens its sd (:func:`gap_widened_sd`).
+GAP_WINDOW_S = 0.05
+#: A lift-off further than this share of the scene's trigger-to-lift-off time from the
+#: scene's own disagrees with the engine filmed (:func:`timing_widened_sd`).
+LIFT_TIMING_SHARE = 0.1
+
+
+def gap_widened_sd(t: np.ndarray, tracked: np.ndarray, lift_off: float, sd: float
+                   ) -> tuple[float, str | None]:
+    """The lift-off's sd (s) widened where an angle it rests on is not tracked near it:
+    ``tracked`` (k, n) bool per angle and row (θ and ψ: the normal force is the phase-I
+    formula on them); each untracked run of rows that reaches from :data:`GAP_WINDOW_S`
+    before ``lift_off`` (s) to two frames after it adds its span / √12 in quadrature (the
+    lift-off could lie anywhere the data do not show; a gap that starts after the
+    crossing moved nothing: on the video bench's Kinovea exports the counterweight's gaps
+    from 27 ms after lift-off on had widened its sd to 60-200 ms and let the stone's
+    coarser departure pull it 3-4 frames early). A stress-grid log whose counterweight's
+    track was dropped from 60 ms before lift-off on put it 9.8 frames late with an sd of 0.3
+    frame. Returns the sd and a sentence (None: nothing widened)."""
+    t = np.asarray(t, dtype=float)
+    frame = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    # a gap that starts after the crossing (and its first frames below zero) moves nothing
+    near = (t >= lift_off - GAP_WINDOW_S) & (t <= lift_off + 2.0 * frame)
+    extra, spans = 0.0, []
+    for row in np.asarray(tracked, bool):
+        missing = ~row
+        if not (missing & near).any():
+            continue
+        idx = np.flatnonzero(missing)
+        cuts = np.flatnonzero(np.diff(idx) > 1)
+        for a, b in zip(np.r_[idx[0], idx[cuts + 1]], np.r_[idx[cuts], idx[-1]], strict=True):
+            if near[a:b + 1].any():
+                lo, hi = t[max(a - 1, 0)], t[min(b + 1, t.size - 1)]
+                extra = max(extra, (hi - lo) / np.sqrt(12.0))
+                spans.append((float(t[a]), float(t[b])))
+    if extra == 0.0:
+        return sd, None
+    wide = float(np.hypot(sd if np.isfinite(sd) else 0.0, extra))
+    runs = ", ".join(f"{a:.4f}–{b:.4f} s" for a, b in spans[:3])
+    return wide, (f"the angles the trough's normal force rests on are not tracked near the "
+                  f"lift-off ({runs}): its sd is widened to {1e3 * wide:.1f} ms")
+
+
+def timing_widened_sd(lift_off: float, sd: float, scene_lift_off: float | None,
+                      span: float) -> tuple[float, str | None]:
+    """The lift-off's sd (s) widened to cover the scene's own lift-off (``scene_lift_off``,
+    s, log time: the trigger plus the simulated time to lift-off ``span``; None: unknown)
+    where the two lie more than :data:`LIFT_TIMING_SHARE` of ``span`` apart (as
+    :func:`~.release_sources.timing_checked` does for a release); a sentence (None: as it
+    is)."""
+    if scene_lift_off is None or not np.isfinite(span) or span <= 0:
+        return sd, None
+    gap = scene_lift_off - lift_off
+    if abs(gap) <= LIFT_TIMING_SHARE * span:
+        return sd, None
+    wide = covering_sd(sd if np.isfinite(sd) else 0.0, gap)
+    return wide, (f"the lift-off at {lift_off:.4f} s lies {1e3 * abs(gap):.0f} ms from the "
+                  f"scene's own {scene_lift_off:.4f} s: it is taken with sd "
+                  f"{1e3 * wide:.1f} ms to cover both")

@@ -48,13 +48,13 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.stats import chi2 as chi2_distribution
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.events.detection import refined_profile
 from trebuchet.model import dynamics as dyn
 from trebuchet.model.scene import Scene
 
 __all__ = ["ReleaseFit", "ModelRelease", "phase_accelerations", "phase_change_profile",
-           "release_jump_chi2", "release_from_model", "release_choice", "scene_doubt"]
+           "release_jump_chi2", "release_from_model", "scene_doubt"]
 
 
 @dataclass(frozen=True)
@@ -360,34 +360,6 @@ def release_from_model(log_angles: Mapping[str, np.ndarray], est: Mapping[str, n
     chance = float(chi2_distribution.sf(best, max(dof, 1)))
     return ModelRelease(when, spread, misfit, chi2_dof, log_ratio,
                         "the engine's equations (phase II before, phase III after)", chance)
-
-
-def release_choice(model: ModelRelease, model_free: float | None,
-                   settings: ReleaseFit = ReleaseFit()) -> tuple[bool, str | None]:
-    """Whether the model's release replaces the model-free one (``model_free`` s, log
-    time, None = none found), and a sentence for the user (None =
-    nothing to say): replaced when the scene fits (``misfit`` ≤ ``max_misfit``) and the two
-    differ by more than ``agreement_sd`` of its sd (measured, unlike the model-free one's:
-    on simulated logs whose sling track goes on the jump search lands up to 6 frames off
-    where the model's sd is 4, and ½ frame off across a frame where it is 0.2), or no
-    model-free one was found; a misfit says neither phase fits."""
-    if model.misfit > settings.max_misfit:
-        return False, (f"the scene's equations fit the measured accelerations of θ and ψ "
-                       f"neither as phase II nor as phase III (median squared residual "
-                       f"{model.misfit:.1f} sd² per angle): is the scene the engine filmed? "
-                       "The release is not checked against them")
-    if model.time is None:
-        return False, None
-    if model_free is None:
-        return True, (f"release at {model.time:.4f} s (sd {1e3 * model.sd:.1f} ms) from the "
-                      "engine's equations; no jump in the angles' acceleration marked it")
-    gap = model.time - model_free
-    if abs(gap) <= settings.agreement_sd * model.sd:
-        return False, None
-    return True, (f"release at {model.time:.4f} s (sd {1e3 * model.sd:.1f} ms) from the "
-                  f"engine's equations, {1e3 * abs(gap):.0f} ms "
-                  f"{'before' if gap < 0 else 'after'} the jump in acceleration at "
-                  f"{model_free:.4f} s (the sling's track goes on past the release?)")
 
 
 def scene_doubt(model: ModelRelease, settings: ReleaseFit = ReleaseFit()) -> str | None:

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.events.detection import refined_profile
 from trebuchet.model.scene import Scene
 

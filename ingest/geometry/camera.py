@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 
 __all__ = ["Camera", "Intrinsics", "CameraPose", "apply_homography", "distort", "undistort",
            "project", "unproject", "homography_from_points", "camera_from_points",

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.scene import Engine
 
 from .camera import Camera

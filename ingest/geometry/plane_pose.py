@@ -13,7 +13,7 @@ from typing import Protocol
 import numpy as np
 from scipy.optimize import least_squares
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.model.scene import Engine
 
 from .camera import rotation_from_angles

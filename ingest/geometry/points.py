@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trebuchet.errors import Option, TrebuchetInputError
+from trebuchet.core.errors import Option, TrebuchetInputError
 from trebuchet.ingest.readers.mapping import ROLES, Candidate, check_mapping, resolve
 
 #: Lower end of the 2π window holding each angle's first present value (rad).

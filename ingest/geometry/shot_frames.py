@@ -8,11 +8,14 @@ motion's onset, the stone's rise off the trough, its flight off the sling's circ
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .track_flags import RAYLEIGH_MEDIAN
 
-__all__ = ["onset", "rest_frames", "circle_centre", "sling_frames", "trough_frames"]
+__all__ = ["onset", "rest_frames", "circle_centre", "sling_frames", "trough_frames",
+           "FrameRoles", "frame_roles"]
 
 
 def onset(d: np.ndarray, low: float, power: float) -> int:
@@ -94,3 +97,47 @@ def trough_frames(y: np.ndarray, rest: np.ndarray, tol: float) -> np.ndarray:
     out = np.zeros(y.size, bool)
     out[:max(first - 1, 0)] = True
     return out & (np.isfinite(y) | rest)
+
+
+@dataclass(frozen=True)
+class FrameRoles:
+    """Which frames of a point log get which constraint of :func:`calibrate` ((n,) bool
+    each): ``rest`` (the engine at rest), ``plumb`` (the counterweight hangs plumb: at rest,
+    for a hinged arm), ``sling`` (the projectile L4 from the spigot), ``flight`` (on its
+    parabola), ``trough`` (on the trough's level); ``tau`` (n,) s since the first flight
+    frame."""
+
+    rest: np.ndarray
+    plumb: np.ndarray
+    sling: np.ndarray
+    flight: np.ndarray
+    trough: np.ndarray
+    tau: np.ndarray
+
+
+def frame_roles(obs: dict[str, np.ndarray], n: int, hinged: bool, pivot_img: np.ndarray,
+                *, g: float | None, t: np.ndarray | None, at_rest: np.ndarray | None,
+                in_trough: np.ndarray | None, in_sling: np.ndarray | None,
+                trough: bool) -> FrameRoles:
+    """The :class:`FrameRoles` of the tracks ``obs`` (px, y up; n frames): as given, else
+    found from the tracks; ``hinged``: the counterweight swings on a hinge (it hangs
+    plumb at rest); ``g`` (m/s²) and ``t`` (s) for the stone's flight (None: not fitted);
+    see :func:`~.calibration.calibrate`."""
+    moving = next(obs[k] for k in ("spigot", "projectile", "counterweight", "hinge")
+                  if k in obs)
+    rest = np.asarray(at_rest, bool) if at_rest is not None else rest_frames(moving)
+    sling = np.ones(n, bool)
+    if "projectile" in obs:
+        sling = (np.asarray(in_sling, bool) if in_sling is not None else
+                 sling_frames(obs, pivot_img))
+    flight = ~sling & (g is not None) & (t is not None)
+    if "projectile" in obs and np.isfinite(obs["projectile"][flight]).all(axis=1).sum() < 5:
+        flight[:] = False
+    tau = np.zeros(n)
+    if flight.any():
+        tt = np.asarray(t, float)
+        tau = tt - tt[np.flatnonzero(flight)[0]]                 # s since the first flight frame
+    trough_mask = (np.asarray(in_trough, bool) if in_trough is not None
+                   else (rest.copy() if trough and "projectile" in obs else np.zeros(n, bool)))
+    plumb = rest if hinged else np.zeros(n, bool)  # a rigid arm does not hang plumb
+    return FrameRoles(rest, plumb, sling, flight, trough_mask, tau)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .beam_hinge import beam_hinge
+from .tie_fit import camera_terms, own_terms, robust_sd, trimmed_fit
 
 __all__ = ["StuckRun", "stuck_runs", "OffEngine", "off_engine", "tracking_noise", "WINDOW",
            "STILL_SHARE"]
@@ -95,6 +96,32 @@ def _held(xy: np.ndarray, first: int, last: int, tol: float) -> tuple[int, int]:
     return first, k - 1
 
 
+#: Before it stands still, a template sliding onto an occluder drags its point off the
+#: engine: the frames just before a stuck run whose tie is off by this share of its size
+#: (and 5 noise sd) are the slide, and are left out with the run.
+SLIDE_SHARE = 0.02
+#: ...over at most this many frames (a stone in flight before a template stuck on
+#: something keeps the rest of its flight).
+SLIDE_FRAMES = 15
+
+
+def _slid_from(d: np.ndarray, tie: float, first: int, limit: float) -> int:
+    """The first frame of a stuck run starting at ``first`` grown back over the frames
+    just before it whose tie ``d`` (per frame) lies further than ``limit`` from its median
+    ``tie`` (gaps skipped): the template's slide onto what it sticks to (Kinovea's
+    default tracker re-cuts its template on a frame leg over a dozen frames as the stone
+    passes behind it; those frames are no sling angle, and were taken for the stone's
+    flight)."""
+    k = first - 1
+    while k >= max(first - SLIDE_FRAMES, 0) and not (np.isfinite(d[k])
+                                                     and abs(d[k] - tie) <= limit):
+        k -= 1
+    start = k + 1
+    while start < first and not np.isfinite(d[start]):
+        start += 1
+    return start
+
+
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """(first, last) of the runs of True."""
     idx = np.flatnonzero(mask)
@@ -170,14 +197,15 @@ def stuck_runs(positions: dict[str, tuple[np.ndarray, np.ndarray]],
         for first, last in _runs(stuck):
             first, last = _held(xy[point], first, last,
                                 NOISE_SPREADS * sigma + STILL_SHARE * beam)
+            first = _slid_from(d, tie, first, max(5.0 * sigma, SLIDE_SHARE * size))
             found.append(StuckRun(point, ref, first, last,
                                   float(np.nanmax(spreads[first:last + 1])),
                                   float(np.nanmax(moves[first:last + 1]))))
     return found
 
 
-#: A tie further than this many robust sd (and :data:`OFF_SHARE` of its size) from its
-#: median marks a position off the engine...
+#: A tie further than this many robust sd (and :data:`OFF_SHARE` of its size) from the tie
+#: the camera should show (:mod:`.tie_fit`) marks a position off the engine...
 OFF_SD = 6.0
 OFF_SHARE = 0.03
 #: ...for the projectile only in runs of at most this many frames (a longer departure is
@@ -228,7 +256,8 @@ def _lost_on(xy: np.ndarray, off: np.ndarray, dev: np.ndarray, limit: float) -> 
 @dataclass(frozen=True)
 class OffEngine:
     """Frames ``first``..``last`` where ``point`` lies off the engine: its tie to
-    ``partner`` leaves its median by ``largest`` (the file's unit), ``sd`` robust sd of it."""
+    ``partner`` leaves the tie the camera should show (:func:`.tie_fit.fitted_tie`) by
+    ``largest`` (the file's unit), ``sd`` the robust sd of the tie about that fit."""
 
     point: str
     partner: str
@@ -238,46 +267,68 @@ class OffEngine:
     sd: float
 
 
-def _robust_sd(d: np.ndarray) -> float:
-    ok = d[np.isfinite(d)]
-    return float(1.4826 * np.median(np.abs(ok - np.median(ok)))) if ok.size else float("nan")
+def _ties(xy: dict[str, np.ndarray]) -> tuple[dict[str, tuple[np.ndarray, float, float]],
+                                               object]:
+    """Each point's tie less the tie the camera should show there (:mod:`.tie_fit`: the
+    pivot–spigot distance fits the camera, the counterweight's distance from the hinge
+    only its own length on top of it, the stone's its own terms; the hinge's bend from the
+    beam's line, which a camera keeps straight, its median), the residual's robust sd and
+    the tie's size (the file's unit); and the hinge the beam puts there
+    (:func:`.beam_hinge.beam_hinge`, or None)."""
+    pivot, spigot = xy["pivot"], xy["spigot"]
+    arm = spigot - pivot
+    length = np.hypot(arm[:, 0], arm[:, 1])
+    beam_size = float(np.nanmedian(length))
+    if not np.isfinite(beam_size) or beam_size <= 0:
+        beam_size = 1.0
+    centre = np.nanmedian(pivot, axis=0)
+    beam = trimmed_fit(length, np.column_stack([np.ones(length.size),
+                                                camera_terms(arm, 0.5 * arm, beam_size)]))
+    out = {"spigot": (length - beam.expected, beam.sd, beam_size)}
+    lens = beam.coef[1:] if beam.coef.size == 5 else np.zeros(4)  # too few frames: none
+    if "hinge" in xy:
+        bend, size = _tie(xy, "hinge", "spigot")
+        out["hinge"] = (bend - np.nanmedian(bend),
+                        robust_sd(np.where(np.abs(bend) < 0.1 * size, bend, np.nan)), size)
+    hinge = None
+    if "counterweight" in xy and "hinge" in xy:
+        # the hinge the beam puts there (tracked where it agrees): a hinge hidden or off its
+        # marker neither hides nor fakes a counterweight off its arm
+        hinge = beam_hinge(pivot, spigot, xy["hinge"])
+        anchor = xy["hinge"] if hinge is None else hinge.xy
+        seg = xy["counterweight"] - anchor
+        d = np.hypot(seg[:, 0], seg[:, 1])
+        camera = camera_terms(seg, anchor + 0.5 * seg - centre, beam_size) @ lens
+        fit = trimmed_fit(d, np.ones((d.size, 1)), offset=camera)
+        out["counterweight"] = (d - fit.expected, fit.sd, float(np.nanmedian(d)))
+    if "projectile" in xy:
+        seg = xy["projectile"] - spigot
+        d = np.hypot(seg[:, 0], seg[:, 1])
+        fit = trimmed_fit(d, own_terms(seg, spigot + 0.5 * seg - centre, beam_size))
+        out["projectile"] = (d - fit.expected, fit.sd, float(np.nanmedian(d)))
+    return out, hinge
 
 
 def off_engine(positions: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[OffEngine]:
-    """Runs of frames where one tracked point lies off the engine's geometry (a template
-    matched on an occluder or another marker), each blamed on the
+    """Runs of frames where one tracked point lies off the engine's geometry as the camera
+    draws it (a template matched on an occluder or another marker), each blamed on the
     point whose own ties break: the spigot if its distance from the pivot (L1) breaks, the
     hinge if only the beam bends, the counterweight if only L3 stretches, the projectile if
-    only L4 does (a spike, not the stone's flight). ``positions`` as for :func:`stuck_runs`."""
+    only L4 does (a spike, not the stone's flight). A tie breaks where it leaves the tie the
+    camera's perspective and lens allow (:mod:`.tie_fit`: smooth in the segment's
+    direction and position), not its median. ``positions`` as for :func:`stuck_runs`."""
     if "pivot" not in positions or "spigot" not in positions:
         return []
     xy = {r: np.column_stack(p).astype(float) for r, p in positions.items()}
     n = xy["pivot"].shape[0]
-    ties: dict[str, tuple[np.ndarray, float]] = {}
-    arm = xy["spigot"] - xy["pivot"]
-    ties["spigot"] = (np.hypot(arm[:, 0], arm[:, 1]), 0.0)
-    if "hinge" in xy:
-        ties["hinge"] = _tie(xy, "hinge", "spigot")
-    beam = None
-    if "counterweight" in xy and "hinge" in xy:
-        # the hinge the beam puts there (tracked where it agrees): a hinge hidden or off its
-        # marker neither hides nor fakes a counterweight off its arm
-        beam = beam_hinge(xy["pivot"], xy["spigot"], xy["hinge"])
-        arm = xy["counterweight"] - (xy["hinge"] if beam is None else beam.xy)
-        d = np.hypot(arm[:, 0], arm[:, 1])
-        ties["counterweight"] = (d, float(np.nanmedian(d)))
-    if "projectile" in xy:
-        ties["projectile"] = _tie(xy, "projectile", "spigot")
+    ties, beam = _ties(xy)
     partners = {"spigot": "pivot", "hinge": "spigot", "counterweight": "hinge",
                 "projectile": "spigot"}
     bad: dict[str, np.ndarray] = {}
-    size = {}
-    for point, (d, s) in ties.items():
-        s = s if s > 0 else float(np.nanmedian(d))
-        size[point] = s
-        dev = np.abs(d - np.nanmedian(d))
-        sd = _robust_sd(np.where(dev < 0.1 * s, d, np.nan))  # the stone's flight left out
-        bad[point] = np.nan_to_num(dev > max(OFF_SD * sd, OFF_SHARE * s), nan=False)
+    limits = {}
+    for point, (residual, sd, size) in ties.items():
+        limits[point] = max(OFF_SD * sd if np.isfinite(sd) else 0.0, OFF_SHARE * size)
+        bad[point] = np.nan_to_num(np.abs(residual) > limits[point], nan=False)
     # blame the point whose own tie breaks, not the partner it drags along
     if "hinge" in bad:
         bad["hinge"] &= ~bad["spigot"]
@@ -287,16 +338,14 @@ def off_engine(positions: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[OffE
         bad["projectile"] &= ~bad["spigot"]
     for point, mask in bad.items():
         if point != "projectile":
-            d = ties[point][0]
-            limit = max(OFF_SD * _robust_sd(d), OFF_SHARE * size[point])
-            bad[point] = _lost_on(xy[point], mask, np.abs(d - np.nanmedian(d)), limit)
+            bad[point] = _lost_on(xy[point], mask, np.abs(ties[point][0]), limits[point])
     found = []
     for point, mask in bad.items():
-        d = ties[point][0]
+        residual, sd, _ = ties[point]
         for first, last in _runs(mask):
             if point == "projectile" and last - first + 1 > OFF_RUN:
                 continue  # the stone in flight leaves its sling's circle for good
-            dev = np.abs(d[first:last + 1] - np.nanmedian(d))
-            found.append(OffEngine(point, partners[point], first, last, float(np.nanmax(dev)),
-                                   _robust_sd(d)))
+            found.append(OffEngine(point, partners[point], first, last,
+                                   float(np.nanmax(np.abs(residual[first:last + 1]))),
+                                   sd))
     return sorted(found, key=lambda o: (o.first, o.point)) if n else []

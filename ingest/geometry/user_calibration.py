@@ -42,9 +42,9 @@ from pathlib import Path
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.user_files import read_user_file
 from trebuchet.ingest.readers.table import DECIMAL
-from trebuchet.user_files import read_user_file
 
 from .camera import apply_homography, homography_from_points
 from .camera_files import camera_yaml, opencv_xml

@@ -27,7 +27,7 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import Option, TrebuchetInputError
+from trebuchet.core.errors import Option, TrebuchetInputError
 from trebuchet.ingest.identification.check import ResidualCheck
 from trebuchet.ingest.identification.parameters import MASS_KEYS
 from trebuchet.model.scene import Friction, Scene

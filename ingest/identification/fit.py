@@ -21,7 +21,7 @@ from functools import cached_property
 import numpy as np
 from scipy.optimize import least_squares
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.events.detection import robust_noise_sd, trigger_estimate
 from trebuchet.ingest.identification.check import ResidualCheck, covariance, residual_check
 from trebuchet.ingest.identification.noise import difference_noise_sd

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.ingest.advisory import ADVISED, resolution_advisories
 from trebuchet.ingest.identification.fit import ShotFit
 from trebuchet.ingest.identification.identify import MIN_FRAMES, fitted_identification

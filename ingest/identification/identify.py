@@ -22,7 +22,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import ModelValidityWarning, TrebuchetInputError, check_choice, warn_at_caller
+from trebuchet.core.errors import (
+    ModelValidityWarning,
+    TrebuchetInputError,
+    check_choice,
+    warn_at_caller,
+)
 from trebuchet.ingest.identification.diagnosis import (
     check_separable,
     mass_scale_warnings,

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.core.errors import TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.ingest.calibrated_angles import calibrated_log
 from trebuchet.ingest.geometry.user_calibration import read_calibration
 from trebuchet.ingest.logs.result import read_log_info

@@ -27,7 +27,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
-from trebuchet.errors import Option, TrebuchetInputError
+from trebuchet.core.errors import Option, TrebuchetInputError
 from trebuchet.model.scene import SCENE_KEYS, Friction, Scene, default_moment_of_inertia
 
 __all__ = ["FreeKey", "UNITS", "MASS_KEYS", "default_free", "free_keys", "scene_value",

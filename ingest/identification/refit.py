@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.identification.fit import DIFF_STEP, ShotFit, assessed, shot_fit
 from trebuchet.ingest.identification.parameters import scene_value
 from trebuchet.ingest.identification.shot_model import ShotModel

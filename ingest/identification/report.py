@@ -128,8 +128,8 @@ def fitted_scene_text(ident: Identification, *, log: str = "log") -> str:
 def write_fitted_scene(ident: Identification, target: str | Path, *, log: str = "log",
                        inputs: list[str | Path | None] | None = None) -> None:
     """Write :func:`fitted_scene_text` to ``target`` whole or not at all, never over one of
-    the command's ``inputs`` (:func:`trebuchet.output.atomic_path`)."""
-    from trebuchet.output import atomic_path
+    the command's ``inputs`` (:func:`trebuchet.core.output.atomic_path`)."""
+    from trebuchet.core.output import atomic_path
 
     text = fitted_scene_text(ident, log=log)
     with atomic_path(target, inputs=inputs or ()) as tmp:

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.geometry.beam_hinge import beam_hinge, hinge_note
 from trebuchet.ingest.geometry.points import NEEDS, point_angles, resolve_points
 from trebuchet.ingest.geometry.sling_circle import leaving_time, sling_ratio
@@ -64,7 +64,9 @@ def from_points(
         positions = {r: tuple(calibration.to_plane(np.column_stack(xy)).T)
                      for r, xy in positions.items()}
         decisions.append(calibration.describe())
+    held = []
     for run in stuck_runs(positions):  # a tracker held on an occluder: gaps, named
+        held.append((run.point, float(source.t[run.first]), float(source.t[run.last])))
         x, y = (v.copy() for v in positions[run.point])
         x[run.first:run.last + 1] = np.nan
         y[run.first:run.last + 1] = np.nan
@@ -115,6 +117,7 @@ def from_points(
         repairs=repairs,
         leaves_sling=leaves,
         decisions=decisions,
+        held=tuple(held),
     )
 
 

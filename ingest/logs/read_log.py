@@ -21,7 +21,7 @@ as gaps: no row is invented, no value interpolated); repeated frames (an up-conv
 video's runs of one image) are dropped; each angle is unwrapped. Every repair (and every
 inferred unit) is listed in the result's ``repairs`` (``attrs["log"]``, a
 :class:`.result.ReadLog`) and warned about as a
-:class:`~trebuchet.errors.TrebuchetDataWarning`.
+:class:`~trebuchet.core.errors.TrebuchetDataWarning`.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import (
+from trebuchet.core.errors import (
     Option,
     TrebuchetDataWarning,
     TrebuchetInputError,
@@ -422,6 +422,7 @@ def _frame(path: str | Path, log: ParsedLog, repairs: list[str]) -> pd.DataFrame
         point_names=None if log.points is None else dict(log.point_names or {}),
         leaves_sling=log.leaves_sling,
         lines=log.rows,
+        held=log.held,
     )
     df.attrs["log"] = info
     name = Path(path).name

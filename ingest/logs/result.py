@@ -57,6 +57,10 @@ class ReadLog:
     lines:
         The file's line number (1-based) of each row (int64, read-only): messages about
         rows name these, the numbers a user sees in an editor.
+    held:
+        ``(role, first, last)`` (s) of each run of positions left out because the tracker
+        stood still on something while the engine moved (a tracker stuck on a frame
+        member): the stone's track ends there, not at its release.
     """
 
     source: str
@@ -70,11 +74,13 @@ class ReadLog:
     point_names: Any = None
     leaves_sling: tuple[float, float] | None = None
     lines: np.ndarray | None = field(default=None, repr=False)
+    held: tuple[tuple[str, float, float], ...] = ()
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         set_(self, "repairs", tuple(self.repairs))
         set_(self, "decisions", tuple(self.decisions))
+        set_(self, "held", tuple(tuple(h) for h in self.held))
         set_(self, "columns", MappingProxyType(dict(self.columns)))
         if self.frame is not None:
             set_(self, "frame", _frozen(np.asarray(self.frame, dtype=np.int64)))
@@ -98,7 +104,7 @@ class ReadLog:
                            dict(self.columns), self.fps, self.frame,
                            None if self.points is None else dict(self.points),
                            None if self.point_names is None else dict(self.point_names),
-                           self.leaves_sling, self.lines))
+                           self.leaves_sling, self.lines, self.held))
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -33,7 +33,7 @@ import pandas as pd
 from scipy.ndimage import median_filter
 from scipy.signal import savgol_filter
 
-from trebuchet.errors import Option, TrebuchetInputError
+from trebuchet.core.errors import Option, TrebuchetInputError
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.model.scene import Scene, as_scene
 from trebuchet.model.simulate import simulate

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.units import ANGLE_UNITS, decide_angle_unit
 
 #: The ratio of a rate column to dθ/dt that confirms the time unit (both ways).

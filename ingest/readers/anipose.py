@@ -26,7 +26,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.keypoints import keypoint_source
 from trebuchet.ingest.readers.limits import MAX_COORDINATE
 from trebuchet.ingest.readers.mapping import ROLES, Candidate, check_mapping, resolve, role_default

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.hdf5 import open_hdf5
 from trebuchet.ingest.readers.keypoints import choose_individual, keypoint_source
 from trebuchet.ingest.readers.mapping import Candidate, role_default

@@ -1,6 +1,6 @@
 """HDF5 logs (DeepLabCut's .h5, SLEAP's analysis .h5): opened with h5py from their bytes.
 
-The file is read once, as a bounded regular file (:func:`trebuchet.user_files.read_user_file`:
+The file is read once, as a bounded regular file (:func:`trebuchet.core.user_files.read_user_file`:
 no FIFO, no device, at most :data:`.limits.MAX_HDF5_BYTES`), and h5py opens those bytes:
 what is checked is what is read. h5py reads numbers and strings and never unpickles
 anything; a corrupt file's errors inside :func:`open_hdf5` become one-line refusals.
@@ -13,9 +13,9 @@ import io
 from collections.abc import Iterator
 from pathlib import Path
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.user_files import read_user_file
 from trebuchet.ingest.readers.limits import MAX_HDF5_BYTES, MAX_TEXT_BYTES
-from trebuchet.user_files import read_user_file
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: What h5py (and numpy on its arrays) raise for a file that is not the HDF5 it claims to be.

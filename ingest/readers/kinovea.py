@@ -32,7 +32,7 @@ import re
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.mapping import Candidate, role_default
 from trebuchet.ingest.readers.source import LogSource
 from trebuchet.ingest.readers.table import (

@@ -12,7 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from trebuchet.errors import Option, TrebuchetInputError
+from trebuchet.core.errors import Option, TrebuchetInputError
 
 ANGLES = ("theta", "psi", "phi")
 ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")

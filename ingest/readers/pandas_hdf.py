@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.limits import MAX_DATASET_BYTES, MAX_ROWS
 from trebuchet.ingest.readers.pickle_literals import literal
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import pickletools
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 
 #: Largest pickle read (bytes): pandas' attributes are a few kB even for many columns.
 MAX_PICKLE_BYTES = 16 << 20

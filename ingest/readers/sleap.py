@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.hdf5 import is_hdf5, open_hdf5
 from trebuchet.ingest.readers.keypoints import choose_individual, keypoint_source
 from trebuchet.ingest.readers.limits import MAX_DATASET_BYTES, MAX_ROWS

@@ -16,7 +16,9 @@ class ParsedLog:
     says which column of the file each angle came from. ``points`` holds point positions
     (``"<role>_x"``, ``"<role>_y"``, in the file's length unit, y up) for point files.
     ``leaves_sling``: (time, sd) in s at which a tracked projectile leaves its sling's
-    circle (:mod:`.sling_circle`), if it does.
+    circle (:mod:`.sling_circle`), if it does. ``held``: ``(role, first, last)`` (s) of each
+    run of positions left out because the tracker stood still on something while the
+    engine moved (:func:`~trebuchet.ingest.geometry.stuck_points.stuck_runs`).
     """
 
     fmt: str
@@ -31,6 +33,7 @@ class ParsedLog:
     repairs: list[str] = field(default_factory=list)
     leaves_sling: tuple[float, float] | None = None
     decisions: list[str] = field(default_factory=list)
+    held: tuple[tuple[str, float, float], ...] = ()
 
     def take(self, keep: np.ndarray) -> None:
         """Keep only the rows where the boolean mask ``keep`` is true (in place)."""

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
+from trebuchet.core.user_files import read_user_file
 from trebuchet.ingest.readers.limits import MAX_CELL_CHARS, MAX_ROWS, MAX_TEXT_BYTES
-from trebuchet.user_files import read_user_file
 
 #: Cells read as "no value": an empty cell or an explicit not-a-number.
 MISSING_TOKENS = frozenset({"", "nan", "-nan", "na", "n/a", "null", "none"})
@@ -40,7 +40,7 @@ class Line:
 
 def read_text(path: str | Path) -> str:
     """Return the text of a log file (a regular file of at most :data:`.limits.MAX_TEXT_BYTES`,
-    see :func:`trebuchet.user_files.read_user_file`), decoded by :func:`decode_text`. A
+    see :func:`trebuchet.core.user_files.read_user_file`), decoded by :func:`decode_text`. A
     missing, unreadable, special, oversized, empty or binary file is a
     :class:`TrebuchetInputError` without the file's name (the caller adds it)."""
     return decode_text(read_user_file(path, "log", MAX_TEXT_BYTES))

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.timebase import FRAME_RATE_RANGE
 from trebuchet.ingest.readers.units import TIME_UNITS
 

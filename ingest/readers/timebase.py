@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from trebuchet.errors import Option, TrebuchetInputError
+from trebuchet.core.errors import Option, TrebuchetInputError
 
 
 def check_fps(fps: float | None) -> float | None:

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.mapping import Candidate, angle_default, role_default
 from trebuchet.ingest.readers.source import LogSource
 from trebuchet.ingest.readers.table import (

@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 
-from trebuchet.errors import TrebuchetInputError
+from trebuchet.core.errors import TrebuchetInputError
 
 #: Factors to seconds.
 TIME_UNITS: dict[str, float] = {

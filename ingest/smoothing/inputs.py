@@ -9,7 +9,12 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.core.errors import (
+    TrebuchetDataWarning,
+    TrebuchetInputError,
+    on_command_line,
+    warn_at_caller,
+)
 from trebuchet.ingest.smoothing.settings import ANGLES
 
 
@@ -128,6 +133,14 @@ def per_angle(value, name: str, tracked: list[str]) -> dict[str, float]:
 EVENT_ORDER = ("trigger", "lift_off", "release")
 
 
+def event_named(key: str, value: float) -> str:
+    """A given event as the interface called names it: ``--release 0.9`` on the command
+    line, ``events['release'] = 0.9 s`` from Python."""
+    if on_command_line():
+        return f"--{key.replace('_', '-')} {value:g}"
+    return f"events[{key!r}] = {value:g} s"
+
+
 def checked_events(events, t: np.ndarray, source: str = "smooth") -> dict[str, float | None]:
     """Given events (log time, s): key present = given (None = no such event).
 
@@ -156,7 +169,7 @@ def checked_events(events, t: np.ndarray, source: str = "smooth") -> dict[str, f
                                       "in s") from None
         if not (t[0] <= v <= t[-1]):
             raise TrebuchetInputError(
-                f"{source}: events[{key!r}] = {v:g} s lies outside the log "
+                f"{source}: {event_named(key, v)} lies outside the log "
                 f"({t[0]:g}–{t[-1]:g} s)"
             )
         out[key] = v
@@ -164,7 +177,7 @@ def checked_events(events, t: np.ndarray, source: str = "smooth") -> dict[str, f
     for (k0, v0), (k1, v1) in zip(timed, timed[1:], strict=False):
         if v1 <= v0:
             raise TrebuchetInputError(
-                f"{source}: events[{k1!r}] = {v1:g} s is not after events[{k0!r}] = {v0:g} s "
+                f"{source}: {event_named(k1, v1)} is not after {event_named(k0, v0)} "
                 "(the order is trigger < lift_off < release)"
             )
     return out

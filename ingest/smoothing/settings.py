@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from trebuchet.errors import TrebuchetInputError, check_choice
+from trebuchet.core.errors import TrebuchetInputError, check_choice
 from trebuchet.ingest.events.detection import ReleaseSearch, TriggerSearch
 from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 

@@ -43,7 +43,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from trebuchet.errors import TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
+from trebuchet.core.errors import TrebuchetDataWarning, TrebuchetInputError, warn_at_caller
 from trebuchet.ingest.events.detection import robust_noise_sd, trigger_estimate
 from trebuchet.ingest.smoothing.band import bias_band, calibrated_band, shrunk_alpha
 from trebuchet.ingest.smoothing.inputs import (

@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from trebuchet.errors import TrebuchetInputError, cli_command, warn_at_caller
+from trebuchet.core.errors import TrebuchetInputError, cli_command, warn_at_caller
 from trebuchet.ingest.cli import add_reconstruct_arguments, reconstruct_options
 from trebuchet.ingest.settings import ALIGN_MODES, CHANCE_RUNS, RELEASE_MODES
 from trebuchet.report.report_cli import CAPTIONS
@@ -212,9 +212,9 @@ def _release_rule(args: argparse.Namespace) -> str:
 
 @cli_command
 def _compare(args: argparse.Namespace) -> int:
+    from trebuchet.core.output import check_target
     from trebuchet.ingest.compare import CompareOptions
     from trebuchet.model.scene import Scene
-    from trebuchet.output import check_target
 
     start = time.monotonic()
     # what can be checked before the progress lines start: the report folder, the log, the scene

@@ -21,7 +21,8 @@ from typing import Any
 
 import pandas as pd
 
-from trebuchet.ingest.compare import CompareOptions, _with_chance, compare_measured
+from trebuchet.ingest.compare import CompareOptions, compare_measured
+from trebuchet.ingest.compare_chance import with_chance
 from trebuchet.ingest.identification.identify import identify
 from trebuchet.ingest.identification.result import Identification
 from trebuchet.ingest.reconstruction import reconstruction_of
@@ -135,7 +136,7 @@ def fitted_comparison(measured: pd.DataFrame, given: pd.DataFrame, scene: Scene,
         chance = given[["quantity", *[c for c in ("chance_fraction", "chance_limit",
                                                   "chance_limit_all", "effective_samples")
                                       if c in given]]]
-        table = _with_chance(table, chance, measured, predicted, options.band_sd)
+        table = with_chance(table, chance, measured, predicted, options.band_sd)
         table.attrs.update(attrs)
     keys = _key_table(ident)
     return FittedComparison(identification=ident, metrics=table, predicted=predicted,

@@ -3,7 +3,7 @@
 :func:`write_report` is generic: the ``report`` command (a simulated scene) and the
 ``compare`` command (a measured log against the simulation) both call it. The directory
 is built under a temporary name and renamed into place only when every file is written
-(:func:`trebuchet.output.atomic_dir`): after an error, no report, not half of one.
+(:func:`trebuchet.core.output.atomic_dir`): after an error, no report, not half of one.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import pandas as pd
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-from trebuchet.output import atomic_dir
+from trebuchet.core.output import atomic_dir
 
 __all__ = ["write_report", "render_index", "table_html", "FIGURE_DPI", "VIEWPORT"]
 
@@ -204,7 +204,7 @@ def write_report(out_dir: str | Path, figures: Mapping[str, Figure | Callable[[]
         "Details" as the ``csv_tables`` are.
     inputs : paths, optional
         The files the report was made from: refused as ``out_dir`` or inside it
-        (:func:`trebuchet.output.atomic_dir`).
+        (:func:`trebuchet.core.output.atomic_dir`).
 
     Returns
     -------

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from trebuchet.errors import Option, TrebuchetInputError, cli_command, warn_at_caller
+from trebuchet.core.errors import Option, TrebuchetInputError, cli_command, warn_at_caller
 
 if TYPE_CHECKING:
     from trebuchet.model.scene import Scene
@@ -101,8 +101,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 @cli_command
 def _report(args: argparse.Namespace) -> int:
+    from trebuchet.core.output import check_target
     from trebuchet.model.scene import Scene
-    from trebuchet.output import check_target
 
     start = time.monotonic()
     check_target(args.output, folder=True, inputs=[args.scene])

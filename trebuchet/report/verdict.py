@@ -77,7 +77,7 @@ def _stretch(row: pd.Series, release_ms: float | None) -> str:
     side = "above" if worst > 0 else "below"
     when = f"{start:.0f}–{end:.0f} ms"
     if release_ms is not None and start > release_ms:
-        when += " (after release)"
+        when += " (after release, beyond the time figures, which stop there)"
     return f"predicted {side} the band at {when}, by up to {abs(worst):.1f} sd"
 
 
