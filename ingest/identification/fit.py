@@ -30,7 +30,8 @@ from trebuchet.ingest.identification.shot_model import ANGLES, ShotModel, model_
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import Trajectory
 
-__all__ = ["ShotFit", "shot_model", "fit_shot", "DIFF_STEP", "FIT_RTOL"]
+__all__ = ["ShotFit", "shot_model", "fit_shot", "shot_fit", "assessed", "DIFF_STEP",
+           "FIT_RTOL"]
 
 #: Relative step of the Jacobian's forward differences.
 DIFF_STEP = 1e-4
@@ -60,7 +61,9 @@ class ShotFit:
     """A fitted :class:`~.shot_model.ShotModel`: the vector ``x`` (its layout:
     ``model.names``), its ``covariance`` (units of ``x``) and the Jacobian's ``condition``
     number, the residual ``check``, the normalised residuals (3, n; NaN where no frame) and
-    the fitted ``trajectory`` started at ``trigger`` (s, log time); ``nfev`` evaluations."""
+    the fitted ``trajectory`` started at ``trigger`` (s, log time); ``nfev`` evaluations;
+    ``jacobian``: the weighted residuals' Jacobian at ``x`` (N, p) where the check fails
+    (the diagnosis' refit starts from it, :func:`~.refit.extended_fit`), else None."""
 
     model: ShotModel
     x: np.ndarray
@@ -71,6 +74,7 @@ class ShotFit:
     trajectory: Trajectory
     trigger: float
     nfev: int
+    jacobian: np.ndarray | None = None
 
     @property
     def sd(self) -> np.ndarray:
@@ -202,20 +206,40 @@ def fit_shot(model: ShotModel, x0: np.ndarray, max_nfev: int | None = None) -> S
     res = least_squares(model.residual, x0, bounds=(lo, hi), method="trf", x_scale="jac",
                         diff_step=DIFF_STEP, max_nfev=max_nfev or 60 * x0.size,
                         tr_solver=solver, ftol=FIT_TOL, xtol=FIT_TOL, gtol=FIT_TOL)
-    traj, t0 = model.trajectory(res.x, until=float(model.t[-1]))
+    return shot_fit(model, res.x, res.fun, res.jac, int(res.nfev))
+
+
+def assessed(model: ShotModel, x: np.ndarray, fun: np.ndarray
+             ) -> tuple[Trajectory, float, np.ndarray, ResidualCheck]:
+    """The trajectory of ``x`` over the whole log, its trigger (s, log time), the normalised
+    residuals (3, n; NaN where no frame) and the residual check, ``fun`` being
+    ``model.residual(x)``."""
+    traj, t0 = model.trajectory(x, until=float(model.t[-1]))
     normalised = wrapped(model.z - model_angles(traj, t0, model.t)) / model.sd[:, None]
     window = (model.t > t0) & (model.t <= model.fit_end)
     after = {a: normalised[i, window] for i, a in enumerate(ANGLES)
              if np.isfinite(model.z[i]).any()}
-    prior = np.full(res.x.size, np.inf)
-    data = res.fun.size
-    if model.release_prior is not None:  # the prior's row is the residual's last
+    data = fun.size - (model.release_prior is not None)  # the prior's row is the last
+    return traj, t0, normalised, residual_check(after, data, x.size,
+                                                float(fun[:data] @ fun[:data]))
+
+
+def shot_fit(model: ShotModel, x: np.ndarray, fun: np.ndarray, jac: np.ndarray, nfev: int,
+             done: tuple[Trajectory, float, np.ndarray, ResidualCheck] | None = None
+             ) -> ShotFit:
+    """The :class:`ShotFit` of ``model`` at ``x`` whose residual vector is ``fun`` and its
+    Jacobian ``jac`` (``done``: :func:`assessed` of them, where taken already): the covariance
+    added, and the Jacobian kept where the check fails (the diagnosis' refit starts from it,
+    :func:`~.refit.extended_fit`)."""
+    traj, t0, normalised, check = done or assessed(model, x, fun)
+    prior = np.full(x.size, np.inf)
+    if model.release_prior is not None:
         j, _, prior[j] = model.release_prior
-        data -= 1
-    check = residual_check(after, data, res.x.size, float(res.fun[:data] @ res.fun[:data]))
-    cov, condition = covariance(res.jac[:data], check.inflation, prior)
-    return ShotFit(model=model, x=res.x, covariance=cov, condition=condition, check=check,
-                   residuals=normalised, trajectory=traj, trigger=t0, nfev=int(res.nfev))
+    data = fun.size - (model.release_prior is not None)
+    cov, condition = covariance(jac[:data], check.inflation, prior)
+    return ShotFit(model=model, x=x, covariance=cov, condition=condition, check=check,
+                   residuals=normalised, trajectory=traj, trigger=t0, nfev=nfev,
+                   jacobian=None if check.passed else jac)
 
 
 def released_at(fit: ShotFit) -> float | None:

@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from trebuchet.core.errors import ModelValidityWarning, TrebuchetInputError, warn_at_caller
-from trebuchet.ingest.advisory import resolution_advisories
+from trebuchet.ingest.advisory import ADVISED, resolution_advisories
 from trebuchet.ingest.identification.fit import ShotFit
 from trebuchet.ingest.identification.identify import MIN_FRAMES, fitted_identification
 from trebuchet.ingest.identification.parameters import free_keys
@@ -46,8 +46,16 @@ from trebuchet.ingest.smoothing.noise_tuning import NoiseSearch
 from trebuchet.ingest.smoothing.result import smoothing_of
 from trebuchet.ingest.smoothing.settings import SmoothSettings
 from trebuchet.ingest.smoothing.smooth import smooth
-from trebuchet.ingest.state_loads import evaluate_loads, event_variance, shot_phases
-from trebuchet.ingest.uncertainty import propagate
+from trebuchet.ingest.state_loads import (
+    CUMULATIVE_COLUMNS,
+    evaluate_load_columns,
+    event_variance,
+    flight_carry,
+    shot_phases,
+)
+from trebuchet.ingest.uncertainty import Columns, Propagation, chunk_rows, propagate
+from trebuchet.model.frames import frame
+from trebuchet.model.loads import cumulative_energy
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import Trajectory
 
@@ -134,37 +142,80 @@ def _residual_smoothing(t: np.ndarray, z: np.ndarray, model: dict[str, np.ndarra
         return smooth(log, events=events, settings=RESIDUAL_SMOOTHING)
 
 
-def _fit_variance(fit: ShotFit, phase: np.ndarray, state: pd.DataFrame,
+def _residual_propagation(state: Columns, cov: dict[str, np.ndarray], phase: np.ndarray,
+                          scene: Scene, form: str, trough: str) -> Propagation:
+    """The loads on ``state`` and the smoothed residual's covariance ``cov`` propagated to
+    them (first order), by chunks of rows; the bearings' heat, an integral over the rows
+    (:data:`~trebuchet.ingest.state_loads.CUMULATIVE_COLUMNS`), on the whole log at once."""
+
+    def evaluate(s: Columns) -> dict[str, np.ndarray]:
+        return evaluate_load_columns(s, phase[np.asarray(s.index)], scene, form, trough)
+
+    prop = propagate(evaluate, state, cov, order=1, chunk=chunk_rows(len(state)),
+                     carry=flight_carry(phase), order_names=list(ADVISED), columns=True)
+    cumulative = [c for c in prop.names if c in CUMULATIVE_COLUMNS]
+    if cumulative:
+        whole = propagate(lambda s: {c: v for c, v in evaluate(s).items() if c in cumulative},
+                          state, cov, names=cumulative, order=1, columns=True)
+        for k, c in enumerate(cumulative):
+            j = prop.names.index(c)
+            prop.value[:, j], prop.sd[:, j] = whole.value[:, k], whole.sd[:, k]
+    return prop
+
+
+def _fit_variance(fit: ShotFit, phase: np.ndarray, state: Columns,
                   shift: dict[str, np.ndarray], base: np.ndarray, names: list[str],
-                  form: str, trough: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  form: str, trough: str, band: list[str]
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``g C gᵀ`` per row and column of the loads (n, m) and of the state (n, 9), and the
-    loads' gradients ``g`` (p, n, m): the
-    gradient by forward differences of the fitted vector (the loads of each step's engine on
-    its motion), each row kept in its phase (a row whose phase a step moves counts no
-    gradient: the events' sd covers it)."""
-    t = state["t"].to_numpy()
-    G_loads, G_state = [], []
-    state_now = np.column_stack([state[c].to_numpy() for c in STATE_COLUMNS])
-    for h, traj, t0 in fit.steps:
-        if traj is None:
-            G_loads.append(np.zeros_like(base))
-            G_state.append(np.zeros_like(state_now))
-            continue
-        lift, rel = _events(traj, t0)
-        same = shot_phases(t, fit.scene, t0, lift, rel) == phase
-        moved = model_state(traj, t0, t)
-        frame = pd.DataFrame({"t": t} | {c: moved[c] + shift[c] for c in STATE_COLUMNS})
-        values = evaluate_loads(frame, phase, traj.scene, form, trough)[names].to_numpy(
-            dtype=float)
-        moved_state = np.column_stack([frame[c].to_numpy() for c in STATE_COLUMNS])
-        G_loads.append(np.where(same[:, None], np.nan_to_num((values - base) / h), 0.0))
-        G_state.append(np.where(same[:, None], np.nan_to_num((moved_state - state_now) / h),
-                                0.0))
+    gradients ``g`` (len(band), p, n) of the loads ``band``: the gradient by forward
+    differences of the fitted vector (the loads of each step's engine on its motion), each
+    row kept in its phase (a row whose phase a step moves counts no gradient: the events' sd
+    covers it). By chunks of rows (the gradients of every load of a whole log would hold
+    p × m numbers a row); the bearings' heat, an integral over the rows, from each step's
+    power on the whole log."""
+    t = state["t"]
+    n, m = base.shape
     C = np.nan_to_num(fit.covariance, posinf=0.0)
-    G = np.array(G_loads)
-    var_loads = np.einsum("irm,ij,jrm->rm", G, C, G)
-    var_state = np.einsum("irm,ij,jrm->rm", np.array(G_state), C, np.array(G_state))
-    return np.clip(var_loads, 0.0, None), np.clip(var_state, 0.0, None), G
+    steps = [(i, h, traj, t0) for i, (h, traj, t0) in enumerate(fit.steps) if traj is not None]
+    same = {i: shot_phases(t, fit.scene, t0, *_events(traj, t0)) == phase
+            for i, _, traj, t0 in steps}
+    heat = {names.index(e): names.index(p) for e, p in CUMULATIVE_COLUMNS.items() if e in names}
+    powers = np.zeros((fit.x.size, n, len(heat)))
+    var_loads, var_state = np.empty((n, m)), np.empty((n, len(STATE_COLUMNS)))
+    at = [names.index(c) for c in band]
+    gradients = np.empty((len(at), fit.x.size, n))
+    carry, chunk = flight_carry(phase), chunk_rows(n)
+    for lo in range(0, n, chunk):
+        hi = min(lo + chunk, n)
+        extra = np.asarray(carry(lo, hi), dtype=np.int64)
+        rows, k = np.r_[extra, np.arange(lo, hi)], extra.size
+        now = np.column_stack([state[c][lo:hi] for c in STATE_COLUMNS])
+        G = np.zeros((fit.x.size, hi - lo, m))
+        G_state = np.zeros((fit.x.size, hi - lo, len(STATE_COLUMNS)))
+        for i, h, traj, t0 in steps:
+            moved = model_state(traj, t0, t[rows])
+            frame = Columns({"t": t[rows]} | {c: moved[c] + shift[c][rows]
+                                              for c in STATE_COLUMNS}, rows)
+            loads = evaluate_load_columns(frame, phase[rows], traj.scene, form, trough)
+            values = np.stack([loads[c][k:] for c in names], axis=1)
+            moved_state = np.column_stack([frame[c][k:] for c in STATE_COLUMNS])
+            keep = same[i][lo:hi, None]
+            G[i] = np.where(keep, np.nan_to_num((values - base[lo:hi]) / h), 0.0)
+            G_state[i] = np.where(keep, np.nan_to_num((moved_state - now) / h), 0.0)
+            powers[i, lo:hi] = values[:, list(heat.values())]
+        var_loads[lo:hi] = np.einsum("irm,ij,jrm->rm", G, C, G)
+        var_state[lo:hi] = np.einsum("irm,ij,jrm->rm", G_state, C, G_state)
+        gradients[:, :, lo:hi] = np.moveaxis(G[:, :, at], 2, 0)
+    for q, j in enumerate(heat):
+        G = np.zeros((fit.x.size, n))
+        for i, h, _, _ in steps:
+            energy = cumulative_energy(t, powers[i, :, q])
+            G[i] = np.where(same[i], np.nan_to_num((energy - base[:, j]) / h), 0.0)
+        var_loads[:, j] = np.einsum("ir,ij,jr->r", G, C, G)
+        if j in at:
+            gradients[at.index(j)] = G
+    return np.clip(var_loads, 0.0, None), np.clip(var_state, 0.0, None), gradients
 
 
 def fitted_reconstruction(log: pd.DataFrame, scene: Scene, given: Mapping[str, float | None],
@@ -222,7 +273,8 @@ def fitted_reconstruction(log: pd.DataFrame, scene: Scene, given: Mapping[str, f
 def _loads(log: pd.DataFrame, t: np.ndarray, z: np.ndarray, scene: Scene,
            ident: Identification, fit: ShotFit, form: str, trough: str,
            resolution_fraction: float, lines: np.ndarray | None) -> pd.DataFrame:
-    """The frame of :func:`fitted_reconstruction` for a fit that passed its check."""
+    """The frame of :func:`fitted_reconstruction` for a fit that passed its check (the
+    arrays of the whole log freed as soon as they are used: issue 25's 4 KiB a row)."""
     t0 = fit.trigger
     lift, release = _events(fit.trajectory, t0)
     if release is not None and release >= t[-1]:
@@ -231,57 +283,74 @@ def _loads(log: pd.DataFrame, t: np.ndarray, z: np.ndarray, scene: Scene,
     model = model_state(fit.trajectory, t0, t)
     est = _residual_smoothing(t, z, model, t0, release)
     shift = {c: np.nan_to_num(est[c].to_numpy(dtype=float)) for c in STATE_COLUMNS}
-    state = pd.DataFrame({"t": t} | {c: model[c] + shift[c] for c in STATE_COLUMNS})
+    smoothed_sd = {c: np.nan_to_num(est[c + "_sd"].to_numpy(dtype=float))
+                   for c in STATE_COLUMNS}
     cov = {a: np.nan_to_num(np.asarray(c, dtype=float)[:, :3, :3])
            for a, c in smoothing_of(est).cov.items()}
-
-    def evaluate(frame: pd.DataFrame) -> pd.DataFrame:
-        return evaluate_loads(frame, phase, fit.scene, form, trough)
-
-    prop = propagate(evaluate, state, cov, order=1)  # the residual's share is small
+    del est
+    state = Columns({"t": t} | {c: model[c] + shift[c] for c in STATE_COLUMNS},
+                    np.arange(t.size))
+    del model
+    prop = _residual_propagation(state, cov, phase, fit.scene, form, trough)
+    del cov
+    band = [c for c in prop.names if c in BAND_COLUMNS]
     var_fit, var_state, G = _fit_variance(fit, phase, state, shift, prop.value, prop.names,
-                                          form, trough)
-    ev_var = (event_variance(t, t0, ident.trigger_sd, prop.value)
-              + event_variance(t, release, ident.release_sd, prop.value))
-    sd = np.sqrt(prop.sd ** 2 + var_fit + ev_var)
+                                          form, trough, band)
+    del shift
+    ev_var = event_variance(t, t0, ident.trigger_sd, prop.value)
+    event_variance(t, release, ident.release_sd, prop.value, out=ev_var)
+    col = {c: j for j, c in enumerate(prop.names)}
+    other = {c: np.sqrt(prop.sd[:, col[c]] ** 2 + ev_var[:, col[c]]) for c in band}
+    sd = prop.sd  # √(sd² + g C gᵀ + the events' variance), in place
+    np.square(sd, out=sd)
+    sd += var_fit
+    del var_fit
+    np.sqrt(np.add(sd, ev_var, out=sd), out=sd)
+    advice = _advice(ident, t, phase, prop, ev_var, resolution_fraction, lines)
+    value = prop.value
+    del ev_var, prop  # and the variance by order with it, before the frame's block
     out: dict[str, np.ndarray] = {"t": t, "t_shot": t - t0, "phase": phase}
     for c in STATE_COLUMNS:
-        out[c] = state[c].to_numpy()
-    for j, c in enumerate(prop.names):
-        out[c] = prop.value[:, j]
+        out[c] = state[c]
+    for c, j in col.items():
+        out[c] = value[:, j]
     for k, c in enumerate(STATE_COLUMNS):
-        smoothed_sd = np.nan_to_num(est[c + "_sd"].to_numpy(dtype=float))
-        out[c + "_sd"] = np.sqrt(smoothed_sd ** 2 + var_state[:, k])
-    for j, c in enumerate(prop.names):
+        out[c + "_sd"] = np.sqrt(smoothed_sd[c] ** 2 + var_state[:, k])
+    for c, j in col.items():
         out[c + "_sd"] = sd[:, j]
-    result = pd.DataFrame(out, index=log.index)
-    other = np.sqrt(prop.sd ** 2 + ev_var)
+    result = frame(out, index=log.index)
+    del out, state, value, sd
     ident = replace(ident, band=LoadBand(
-        gradients={c: G[:, :, j] for j, c in enumerate(prop.names) if c in BAND_COLUMNS},
-        covariance=np.nan_to_num(fit.covariance, posinf=0.0),
-        other_sd={c: other[:, j] for j, c in enumerate(prop.names) if c in BAND_COLUMNS}))
-    _attach(result, ident, fit, lift, release, prop, sd, ev_var, form, trough,
-            resolution_fraction, lines, scene)
+        gradients={c: G[k] for k, c in enumerate(band)},
+        covariance=np.nan_to_num(fit.covariance, posinf=0.0), other_sd=other))
+    _attach(result, ident, fit, lift, release, advice, form, trough, lines, scene)
     return result
 
 
+def _advice(ident: Identification, t: np.ndarray, phase: np.ndarray, prop: Propagation,
+            ev_var: np.ndarray, resolution_fraction: float, lines: np.ndarray | None
+            ) -> list:
+    """The resolution advisories of the fitted loads (``prop.sd`` holds their whole sd)."""
+    fps = 1.0 / float(np.median(np.diff(t)))
+    noise_deg = math.degrees(float(np.median(list(ident.noise_sd.values()))))
+    col = {c: j for j, c in enumerate(prop.names)}
+    return resolution_advisories(
+        t, phase > 0, {c: prop.value[:, j] for c, j in col.items()},
+        {c: prop.sd[:, j] for c, j in col.items()},
+        {c: prop.orders(c) for c in prop.order_names},
+        {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg, resolution_fraction,
+        lines=lines)
+
+
 def _attach(result: pd.DataFrame, ident: Identification, fit: ShotFit, lift: float | None,
-            release: float | None, prop, sd: np.ndarray, ev_var: np.ndarray, form: str,
-            trough: str, resolution_fraction: float, lines: np.ndarray | None,
-            scene: Scene) -> None:
+            release: float | None, advice: list, form: str, trough: str,
+            lines: np.ndarray | None, scene: Scene) -> None:
     """``attrs["events"]`` and ``attrs["reconstruction"]`` of the fitted loads."""
     t = result["t"].to_numpy()
     phase = result["phase"].to_numpy()
     fps = 1.0 / float(np.median(np.diff(t)))
     noise = {a: {"r_sd": s, "source": "fourth differences of the log"}
              for a, s in ident.noise_sd.items()}
-    noise_deg = math.degrees(float(np.median(list(ident.noise_sd.values()))))
-    col = {c: j for j, c in enumerate(prop.names)}
-    advice = resolution_advisories(
-        t, phase > 0, {c: prop.value[:, j] for c, j in col.items()},
-        {c: sd[:, j] for c, j in col.items()}, {c: prop.by_order[:, :, j] for c, j in col.items()},
-        {c: ev_var[:, j] for c, j in col.items()}, fps, noise_deg, resolution_fraction,
-        lines=lines)
     validity = geometry_findings(t, phase, result["theta"].to_numpy(), result["psi"].to_numpy(),
                                  result["phi"].to_numpy(), scene,
                                  tension=result["sling_tension"].to_numpy(),

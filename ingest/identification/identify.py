@@ -36,6 +36,7 @@ from trebuchet.ingest.identification.diagnosis import (
 from trebuchet.ingest.identification.fit import ShotFit, fit_shot, shot_model
 from trebuchet.ingest.identification.log_angles import angle_log, release_bracket
 from trebuchet.ingest.identification.parameters import FreeKey, free_keys
+from trebuchet.ingest.identification.refit import extended_fit
 from trebuchet.ingest.identification.result import Identification
 from trebuchet.ingest.identification.shot_model import ANGLES
 from trebuchet.ingest.identification.table import (
@@ -169,7 +170,7 @@ def fitted_identification(t: np.ndarray, z: np.ndarray, scene: Scene,
                                release is not None)
     if not fit.check.passed:
         refit = None if not options.diagnose else (
-            lambda sc, fr: _refit(sc, fr, t, z, given.get("trigger"), release, bounds))
+            lambda sc, fr: _refit(sc, fr, fit, t, z, given.get("trigger"), release, bounds))
         warnings.insert(0, missing_piece_warning(fit.check, scene, free, refit))
     warnings += _bound_warnings(table) + mass_scale_warnings(table, scene)
     q = dict(zip(ShotQuantities.NAMES, values, strict=True))
@@ -202,12 +203,16 @@ def _fit(scene: Scene, t: np.ndarray, z: np.ndarray, keys: tuple[FreeKey, ...],
     return fit_shot(model, x0, max_nfev)
 
 
-def _refit(scene: Scene, free: tuple[str, ...], t: np.ndarray, z: np.ndarray,
-           trigger: float | None, release: float | None,
-           bounds: tuple[float, float] | None) -> tuple[object, float]:
-    """The check of a fit of ``scene`` with ``free`` and its bearings' share of ΔU by the
-    release (the diagnosis' refit)."""
-    fit = _fit(scene, t, z, free_keys(scene, free), trigger, release, bounds)
+def _refit(scene: Scene, free: tuple[str, ...], first: ShotFit, t: np.ndarray, z: np.ndarray,
+           trigger: float | None, release: float | None, bounds: tuple[float, float] | None
+           ) -> tuple[object, float]:
+    """The check of a fit of ``scene`` with ``free`` to the log ``t``, ``z`` of ``first`` (a
+    fit that failed its check) and its bearings' share of ΔU by the release (the diagnosis'
+    refit): from ``first``'s solution (:func:`~.refit.extended_fit`), from the scene's own
+    start where its first steps do not pass."""
+    model, x0 = shot_model(scene, t, z, free_keys(scene, free), trigger=trigger,
+                           release=release, release_bounds=bounds)
+    fit = extended_fit(model, first) or fit_shot(model, x0)
     q = ShotQuantities(fit.trajectory, fit.trigger).values
     names = ShotQuantities.NAMES
     share = (q[names.index("loss_pivot")] + q[names.index("loss_hinge")]) / q[
