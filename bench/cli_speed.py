@@ -122,7 +122,7 @@ def _loads_table() -> tuple[pd.DataFrame, float]:
     log, _ = simulated_log(scene, 1000.0, 0.1, rest=0.5, after_release=0.5, seed=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        reconstruct(log.iloc[:200], scene)  # compile and load what it needs
+        reconstruct(log, scene)  # compile and load what it needs
         t0 = time.perf_counter()
         loads = reconstruct(log, scene)
         return loads, time.perf_counter() - t0
