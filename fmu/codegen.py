@@ -12,6 +12,10 @@ Functions written on floats with :mod:`math` by name (``row_loads``, the event f
 drag flight) are traced through a copy that sees ``math`` bound to sympy (:func:`traced`);
 the module itself is not touched.
 
+The in-process engine's formulas (``treb_rows.c``: every column of ``simulate``'s rows) are
+tabled in :mod:`trebuchet.fmu.engine_formulas` on the pieces named here; this module holds
+the generator and the FMU's formulas (``treb_formulas.c``).
+
 Every generated function has one signature, ``void treb_<name>(const double *q, const
 double *x, double *out)``: ``q`` the engine's parameters in the order of
 :data:`PARAMETER_NAMES`, ``x`` the inputs of the formula (:attr:`Formula.inputs`), ``out``
@@ -40,9 +44,8 @@ from trebuchet.model import phase_events as pev
 from trebuchet.model.scene import default_moment_of_inertia
 
 __all__ = ["Formula", "FORMULAS", "PARAMETER_NAMES", "ANGLE_NAMES", "LOAD_OUTPUTS",
-           "generate_c", "generate_header", "engine_namespace", "ENGINE_FORMULAS", "ROW_NAMES",
-           "PEAK_ROW_NAMES",
-           "generate_rows_header", "traced", "sympy_math"]
+           "STATES", "REST", "LOST", "COUPLES", "Build", "phase_outputs",
+           "generate_c", "generate_header", "engine_namespace", "traced", "sympy_math"]
 
 #: The engine's parameters, in the order of the generated functions' ``q`` array: lengths (m),
 #: masses (kg), I (kg m²), the fixed counterweight's offset ψ − θ (rad), g (m/s²), H (m), and
@@ -54,13 +57,15 @@ ANGLE_NAMES = ("theta", "psi", "phi", "theta_d", "psi_d", "phi_d", "theta_dd", "
                "phi_dd")
 #: Load outputs (the FMU's outputs after phase and angles), columns of ``row_loads``.
 LOAD_OUTPUTS = tuple(n for n in OUTPUT_NAMES if n != "phase" and n not in ANGLE_NAMES)
-_STATE = {1: ("th", "ps", "th_d", "ps_d"), 2: ("th", "ps", "ph", "th_d", "ps_d", "ph_d"),
+#: The inputs of each phase's state: the angles (rad) and their rates (rad/s).
+STATES = {1: ("th", "ps", "th_d", "ps_d"), 2: ("th", "ps", "ph", "th_d", "ps_d", "ph_d"),
           3: ("th", "ps", "th_d", "ps_d")}
-_REST = ("rest_m", "rest_M", "rest_beam")
+#: The energies at rest (J) that the outputs' energies are counted from.
+REST = ("rest_m", "rest_M", "rest_beam")
 #: With friction: the lost energies (states, in units of ``dynamics.energy_scale``) and the
 #: couples' generalised forces (N m, solved by the C glue with the generated Newton steps).
-_LOST = ("e_P", "e_H")
-_Q = ("Q_th", "Q_ps")
+LOST = ("e_P", "e_H")
+COUPLES = ("Q_th", "Q_ps")
 #: The pieces of ``dynamics.friction_pieces`` and Newton's start ``dynamics.friction_start``.
 PIECES = tuple(f"p{i}" for i in range(14))
 _NEWTON = ("n_R", "n_H")
@@ -135,7 +140,7 @@ def _motion(phase: int, x: dict[str, Any], e: Any, g: Any, H: Any, lib: Any,
             friction: bool) -> tuple:
     """:func:`dynamics.phase_motion` of ``phase`` from its state (with friction: under the
     couples' generalised forces ``Q_th``, ``Q_ps`` of the inputs); φ 0 in III."""
-    y = [x[n] for n in _STATE[phase]]
+    y = [x[n] for n in STATES[phase]]
     if friction:
         m = list(dyn.motion_under(phase, y, e, g, H, x["Q_th"], x["Q_ps"], lib))
     else:
@@ -145,15 +150,16 @@ def _motion(phase: int, x: dict[str, Any], e: Any, g: Any, H: Any, lib: Any,
     return tuple(m)
 
 
-def _outputs(phase: int, friction: bool = False,
-             names: tuple[str, ...] | None = None) -> Build:
+def phase_outputs(phase: int, friction: bool = False,
+                  names: tuple[str, ...] | None = None) -> Build:
     """The FMU's outputs of ``phase`` (φ 0 after release); with ``names``, those columns of
-    :data:`ROW_NAMES` (φ NaN after release, as ``simulate``'s table)."""
+    :data:`~trebuchet.fmu.engine_formulas.ROW_NAMES` (φ NaN after release, as ``simulate``'s
+    table)."""
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
         th, ps, ph, th_d, ps_d, ph_d, th_dd, ps_dd, ph_dd = _motion(phase, x, e, g, H, lib,
                                                                     friction)[:9]
         row = traced(frc.row_loads, lib)(phase, th, th_d, th_dd, ps, ps_d, ps_dd, ph, ph_d,
-                                         ph_dd, e, g, H, False, tuple(x[r] for r in _REST))
+                                         ph_dd, e, g, H, False, tuple(x[r] for r in REST))
         cols = dict(zip(frc.ROW_COLUMNS, row, strict=True))
         scale = dyn.energy_scale(e, g)
         cols["E_loss_pivot"] = x["e_P"] * scale if friction else 0.0
@@ -175,8 +181,8 @@ FD_STEP = 1e-5
 def _jacobian(phase: int) -> Build:
     """d(outputs)/d(state) of ``phase``, row-major (output by output): sympy's derivative of
     the outputs on symbols; a central difference of the same Python on floats."""
-    outputs = _outputs(phase)
-    states = _STATE[phase]
+    outputs = phase_outputs(phase)
+    states = STATES[phase]
 
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
         if lib is math:
@@ -196,9 +202,9 @@ def _jacobian(phase: int) -> Build:
 
 def _rates(phase: int, friction: bool = False) -> Build:
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
-        y = [x[n] for n in _STATE[phase]]
+        y = [x[n] for n in STATES[phase]]
         if friction:
-            y += [x[n] for n in _LOST]
+            y += [x[n] for n in LOST]
             d = dyn.state_derivative_under(phase, y, e, g, H, x["Q_th"], x["Q_ps"], lib)
             return d[:len(y)]
         if phase == 1:
@@ -212,7 +218,7 @@ def _rates(phase: int, friction: bool = False) -> Build:
 def _state(x: dict[str, Any], phase: int) -> list[Any]:
     """The phase's state from the inputs (zeros where a formula takes none, as the time
     rule)."""
-    return [x.get(n, 0.0) for n in _STATE[phase]]
+    return [x.get(n, 0.0) for n in STATES[phase]]
 
 
 def _vacuum_flight(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
@@ -256,7 +262,7 @@ def _pieces(phase: int) -> Build:
     """:func:`dynamics.friction_pieces` of ``phase`` and Newton's start
     (:func:`dynamics.friction_start`)."""
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
-        y = [x[n] for n in _STATE[phase]]
+        y = [x[n] for n in STATES[phase]]
         th, ps, ph, th_d, ps_d, ph_d = (y[0], y[1], y[2], y[3], y[4], y[5]) if phase == 2 else (
             y[0], y[1], 0.0, y[2], y[3], 0.0)
         p = dyn.friction_pieces(phase, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
@@ -274,7 +280,7 @@ def _couples(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
 
 
 def _lift_off_under(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
-    y = [x[n] for n in _STATE[1]]
+    y = [x[n] for n in STATES[1]]
     m = dyn.motion_under(1, y, e, g, H, x["Q_th"], x["Q_ps"], lib)
     return [traced(pev.trough_margin, lib)(m, e, g)]
 
@@ -294,34 +300,34 @@ def _all_formulas() -> tuple[Formula, ...]:
         cw = "fixed" if fixed else "hinged"
         for phase in (1, 2, 3):
             out.append(Formula(f"rates{phase}_{cw}", f"phase {phase} state derivative "
-                               "(dynamics.state_rates_phase*)", _STATE[phase],
-                               tuple(f"d_{n}" for n in _STATE[phase]), _rates(phase), fixed))
+                               "(dynamics.state_rates_phase*)", STATES[phase],
+                               tuple(f"d_{n}" for n in STATES[phase]), _rates(phase), fixed))
             out.append(Formula(f"outputs{phase}_{cw}", f"phase {phase} angles, rates, "
                                "accelerations and loads (dynamics + forces.row_loads)",
-                               (*_STATE[phase], *_REST), angles_loads, _outputs(phase), fixed))
+                               (*STATES[phase], *REST), angles_loads, phase_outputs(phase), fixed))
         out.append(Formula(f"outputs3_{cw}_dry", "dry fire (no projectile): angles and loads",
-                           (*_STATE[3], *_REST), angles_loads, _outputs(3), fixed, dry=True))
+                           (*STATES[3], *REST), angles_loads, phase_outputs(3), fixed, dry=True))
         for phase in (1, 2, 3):
             out.append(Formula(f"jacobian{phase}_{cw}", f"phase {phase}: d(outputs)/d(state), "
-                               "row-major", (*_STATE[phase], *_REST),
-                               tuple(f"d{o}/d{n}" for o in angles_loads for n in _STATE[phase]),
+                               "row-major", (*STATES[phase], *REST),
+                               tuple(f"d{o}/d{n}" for o in angles_loads for n in STATES[phase]),
                                _jacobian(phase), fixed, tolerance=JACOBIAN_TOLERANCE))
         out.append(Formula(f"lift_off_{cw}", "phase_events.lift_off_margin: F_N / (m g)",
-                           _STATE[1], ("margin",), _event(pev.LIFT_OFF, 1), fixed))
+                           STATES[1], ("margin",), _event(pev.LIFT_OFF, 1), fixed))
         out += _friction_formulas(fixed, angles_loads)
     out += [
         Formula("friction_newton", "dynamics.friction_newton_step: one Newton step on the "
                 "bearings' load magnitudes (N)", (*PIECES, *_NEWTON), _NEWTON, _newton),
         Formula("friction_couples", "dynamics.friction_result: Q_th, Q_ps (N m)",
-                ("p0", "p1", *_NEWTON), _Q, _couples),
-        Formula("sling_upright", "phase_events.sling_upright_margin", _STATE[1], ("margin",),
+                ("p0", "p1", *_NEWTON), COUPLES, _couples),
+        Formula("sling_upright", "phase_events.sling_upright_margin", STATES[1], ("margin",),
                 _event(pev.SLING_UPRIGHT, 1)),
-        Formula("ground", "phase_events.projectile_height (m)", _STATE[2], ("height",),
+        Formula("ground", "phase_events.projectile_height (m)", STATES[2], ("height",),
                 _event(pev.GROUND, 2)),
         Formula("release_time", "phase_events.time_to_release (s)", ("t", "par"), ("dt",),
                 _event(pev.RELEASE_TIME, 2)),
         Formula("climb", "phase_events.climb_margin (m/s); par: release angle (rad)",
-                (*_STATE[2], "par"), ("margin",), _event(pev.RELEASE_ANGLE, 2)),
+                (*STATES[2], "par"), ("margin",), _event(pev.RELEASE_ANGLE, 2)),
         Formula("projectile", "kinematics.projectile_position_xy, projectile_velocity_xy",
                 ("th", "ph", "th_d", "ph_d"), ("x", "y", "vx", "vy"), _projectile),
         Formula("vacuum_flight", "flight.projectile_in_flight (vacuum) and its energy",
@@ -334,7 +340,7 @@ def _all_formulas() -> tuple[Formula, ...]:
         Formula("flight_energy", "forces.projectile_energy less its rest value (J)",
                 ("vx", "vy", "y", "rest_m"), ("E_m",), _flight_energy),
         Formula("rest_energies", "forces.energies_xy at rest (J)", ("th", "ps", "y_m"),
-                _REST, _rest_energies),
+                REST, _rest_energies),
         Formula("energy_scale", "dynamics.energy_scale (J): the unit of the lost energies' states",
                 (), ("scale",), lambda e, g, H, x, lib: [dyn.energy_scale(e, g)]),
         Formula("default_inertia", "scene.default_moment_of_inertia (kg m2)", (), ("I",),
@@ -352,93 +358,27 @@ def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formu
     out = []
     for phase in (1, 2, 3):
         out.append(Formula(f"friction_pieces{phase}_{cw}", f"phase {phase}: "
-                           "dynamics.friction_pieces and friction_start", _STATE[phase],
+                           "dynamics.friction_pieces and friction_start", STATES[phase],
                            (*PIECES, *_NEWTON), _pieces(phase), fixed, friction=True))
         out.append(Formula(f"rates{phase}_{cw}_friction", f"phase {phase} state derivative "
                            "with friction (dynamics.state_derivative_under)",
-                           (*_STATE[phase], *_LOST, *_Q),
-                           tuple(f"d_{n}" for n in (*_STATE[phase], *_LOST)),
+                           (*STATES[phase], *LOST, *COUPLES),
+                           tuple(f"d_{n}" for n in (*STATES[phase], *LOST)),
                            _rates(phase, True), fixed, friction=True))
         out.append(Formula(f"outputs{phase}_{cw}_friction", f"phase {phase} angles, rates, "
                            "accelerations and loads with friction",
-                           (*_STATE[phase], *_LOST, *_Q, *_REST), angles_loads,
-                           _outputs(phase, True), fixed, friction=True))
+                           (*STATES[phase], *LOST, *COUPLES, *REST), angles_loads,
+                           phase_outputs(phase, True), fixed, friction=True))
     out.append(Formula(f"outputs3_{cw}_dry_friction", "dry fire with friction: angles and loads",
-                       (*_STATE[3], *_LOST, *_Q, *_REST), angles_loads, _outputs(3, True),
+                       (*STATES[3], *LOST, *COUPLES, *REST), angles_loads, phase_outputs(3, True),
                        fixed, dry=True, friction=True))
     out.append(Formula(f"lift_off_{cw}_friction", "phase_events.trough_margin under the "
-                       "couples", (*_STATE[1], *_Q), ("margin",), _lift_off_under, fixed,
+                       "couples", (*STATES[1], *COUPLES), ("margin",), _lift_off_under, fixed,
                        friction=True))
     return out
 
 
 FORMULAS: tuple[Formula, ...] = _all_formulas()
-
-#: The rows of the in-process engine: ``simulate``'s columns after ``t`` and ``phase`` (the
-#: angles, φ NaN after release; every column of :func:`forces.row_loads`, direct form; the
-#: energies lost by friction, J, 0 without), then the height of the counterweight's centre
-#: ``y_M`` (m, for the figures of a design; not a column of the table).
-ROW_NAMES = (*ANGLE_NAMES, *frc.ROW_COLUMNS, "E_loss_pivot", "E_loss_hinge", "y_M")
-
-
-def _counterweight_height(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
-    return [kin.counterweight_position_xy(lib.cos(x["th"]), lib.sin(x["th"]), lib.cos(x["ps"]),
-                                          lib.sin(x["ps"]), e, H)[1]]
-
-
-#: The columns of :data:`ROW_NAMES` a design's peak search takes (``fmu/c/treb_peaks.c``,
-#: ``model/summary_kernel.py``'s extrema): the loads, the energies and the counterweight's
-#: height. Their formulas alone cost about half of a whole row.
-PEAK_ROW_NAMES = ("F_S_abs", "F_H_abs", "F_R_abs", "F_R_perp", "torque", "sling_tension",
-                  "E_m", "E_M", "E_beam", "E_loss_pivot", "E_loss_hinge", "y_M")
-
-
-def _rows(phase: int, friction: bool, names: tuple[str, ...] = ROW_NAMES,
-          expand: bool = False) -> Build:
-    """The columns ``names`` of :data:`ROW_NAMES`; ``expand``: on symbols, the sines and
-    cosines of sums of angles expanded (sympy's ``expand_trig``), so that the C takes the
-    sine and cosine of each angle once (3 ``sincos`` where 5 were; the same numbers to
-    rounding)."""
-    outputs = _outputs(phase, friction, ROW_NAMES[:-1])
-    where = [ROW_NAMES.index(n) for n in names]
-
-    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
-        row = [*outputs(e, g, H, x, lib), *_counterweight_height(e, g, H, x, lib)]
-        if expand and lib is not math:
-            import sympy as sp
-
-            return [sp.expand_trig(sp.sympify(row[i])) for i in where]
-        return [row[i] for i in where]
-    return build
-
-
-def _engine_formulas() -> tuple[Formula, ...]:
-    """The in-process engine's formulas (``treb_rows.c``; not in the FMU): every row column of
-    each phase, counterweight, friction and dry fire, the same for the columns of the peak
-    search (:data:`PEAK_ROW_NAMES`), and the counterweight's height."""
-    out: list[Formula] = []
-    for fixed in (False, True):
-        cw = "fixed" if fixed else "hinged"
-        for friction in (False, True):
-            tail, extra = ("_friction", (*_LOST, *_Q)) if friction else ("", ())
-            for phase, dry in ((1, False), (2, False), (3, False), (3, True)):
-                name = f"{phase}_{cw}{'_dry' if dry else ''}{tail}"
-                what = f"phase {phase}{' (dry fire)' if dry else ''}"
-                for suffix, names, doc in (
-                        ("", ROW_NAMES, "every column of simulate's rows"),
-                        ("_peak", PEAK_ROW_NAMES, "the columns of the peak search")):
-                    out.append(Formula(f"rows{name}{suffix}", f"{what}: {doc} (dynamics + "
-                                       "forces.row_loads)", (*_STATE[phase], *extra, *_REST),
-                                       names, _rows(phase, friction, names, bool(suffix)),
-                                       fixed, dry=dry, friction=friction))
-    out.append(Formula("counterweight_height", "kinematics.counterweight_position_xy: the "
-                       "height of the counterweight's centre (m)", ("th", "ps"), ("y_M",),
-                       _counterweight_height))
-    return tuple(out)
-
-
-ENGINE_FORMULAS: tuple[Formula, ...] = _engine_formulas()
-
 
 def _printer():  # noqa: ANN202 - sympy's printer class
     from sympy.printing.c import C99CodePrinter
@@ -504,20 +444,3 @@ def generate_c(formulas: tuple[Formula, ...] = FORMULAS, header: str = "treb_for
             "#ifndef M_PI", "#define M_PI 3.14159265358979323846", "#endif",
             "#ifndef NAN", "#define NAN (0.0 / 0.0)", "#endif", ""]
     return "\n".join(head) + "\n".join(_function_c(f) for f in formulas)
-
-
-def generate_rows_header() -> str:
-    """``treb_rows.h``: the in-process engine's formulas (:data:`ENGINE_FORMULAS`) and the
-    index of each row column (:data:`ROW_NAMES`)."""
-    lines = ["/* Generated by trebuchet.fmu.codegen from the model's Python: do not edit. */",
-             "#ifndef TREB_ROWS_H", "#define TREB_ROWS_H", "",
-             f"#define TREB_N_ROWS {len(ROW_NAMES)}",
-             f'#define TREB_ROW_NAMES "{" ".join(ROW_NAMES)}"',
-             f'#define TREB_PARAMETER_NAMES "{" ".join(PARAMETER_NAMES)}"']
-    lines += [f"#define TREB_ROW_{n} {i}" for i, n in enumerate(ROW_NAMES)]
-    lines += [f"#define TREB_N_PEAK_ROWS {len(PEAK_ROW_NAMES)}"]
-    lines += [f"#define TREB_PEAK_ROW_{n} {i}" for i, n in enumerate(PEAK_ROW_NAMES)]
-    lines += [f"void treb_{f.name}(const double *q, const double *x, double *out);"
-              for f in ENGINE_FORMULAS]
-    lines += ["", "#endif", ""]
-    return "\n".join(lines)

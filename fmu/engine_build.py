@@ -5,9 +5,9 @@ it with ctypes): :func:`write_engine_sources` writes the FMU's sources
 (:func:`trebuchet.fmu.csources.write_sources`: ``treb_formulas.c`` generated from the model's
 Python, the DOP853 glue ``treb_shot.c``) and the engine's own, ``treb_rows.c`` (every column of
 ``simulate``'s table, generated from ``forces.row_loads`` by
-:data:`trebuchet.fmu.codegen.ENGINE_FORMULAS`) and ``treb_batch.c`` (the hand-written loop over
-output times and the figures of a design on a table's rows) and ``treb_peaks.c`` (a design's
-figures over the continuous shot, one call for many designs); :func:`build_engine` compiles
+:data:`trebuchet.fmu.engine_formulas.ENGINE_FORMULAS`) and ``treb_batch.c`` (the hand-written
+loop over output times and the figures of a design on a table's rows) and ``treb_peaks.c`` (a
+design's figures over the continuous shot, one call for many designs); :func:`build_engine` compiles
 them with gcc into one shared library. ``python -m trebuchet.fmu.engine_build OUT`` does both
 (the simulator runs it in a subprocess when its library is missing or stale, as numba
 compiles on first use).
@@ -21,7 +21,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from trebuchet.fmu import codegen
+from trebuchet.fmu import codegen, engine_formulas
 from trebuchet.fmu.build import CFLAGS
 from trebuchet.fmu.csources import GLUE_DIR, write_sources
 
@@ -41,8 +41,8 @@ ENGINE_CFLAGS = ("-O3", "-fno-math-errno", *(f for f in CFLAGS if f != "-O2"))
 def write_engine_sources(folder: Path) -> list[Path]:
     """Write every C source of the engine into ``folder``; returns the files written."""
     _, written = write_sources(folder)
-    files = {"treb_rows.c": codegen.generate_c(codegen.ENGINE_FORMULAS, "treb_rows.h"),
-             "treb_rows.h": codegen.generate_rows_header()}
+    files = {"treb_rows.c": codegen.generate_c(engine_formulas.ENGINE_FORMULAS, "treb_rows.h"),
+             "treb_rows.h": engine_formulas.generate_rows_header()}
     for name, text in files.items():
         (folder / name).write_text(text)
         written.append(folder / name)

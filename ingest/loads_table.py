@@ -4,23 +4,22 @@
 :func:`~trebuchet.ingest.smoothing.smooth.smooth` (the angles, rates and accelerations with
 their covariance, the events the smoothing found or was given) to the frame of
 :func:`~trebuchet.ingest.reconstruct.reconstruct`: the phase of each row
-(:func:`shot_phases`), every load of :func:`trebuchet.model.loads.loads` on it
-(:func:`phase_loads`) and its sd (:mod:`.uncertainty`, plus the chance that a row next
-to an event lies in the other phase, :func:`event_variance`), lift-off where the trough's
+(:func:`~.state_loads.shot_phases`), every load of :func:`trebuchet.model.loads.loads` on it
+(:func:`~.state_loads.evaluate_load_columns`) and its sd (:mod:`.uncertainty`, plus the
+chance that a row next to an event lies in the other phase,
+:func:`~.state_loads.event_variance`), lift-off where the trough's
 normal force reaches zero (:func:`detect_lift_off`), the resolution advisory and the
 geometry findings. Units: SI.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.special import ndtr
 
-from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.advisory import (
     ADVISED,
     peak_width_advisories,
@@ -42,81 +41,20 @@ from trebuchet.ingest.reconstruction import Reconstruction
 from trebuchet.ingest.scene_fit import geometry_findings
 from trebuchet.ingest.smoothing.result import smoothing_of
 from trebuchet.ingest.smoothing.smooth import ANGLES, SUFFIXES
+from trebuchet.ingest.state_loads import (
+    evaluate_load_columns,
+    event_variance,
+    flight_carry,
+    shot_phases,
+)
 from trebuchet.ingest.uncertainty import chunk_rows, propagate
-from trebuchet.model import dynamics as dyn
-from trebuchet.model.loads import load_columns
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
 
-__all__ = ["STATE_COLUMNS", "shot_phases", "phase_loads", "state_frame", "event_variance",
-           "detect_lift_off", "loads_from_smoothed", "ShotEvents", "shot_events"]
+__all__ = ["STATE_COLUMNS", "state_frame", "detect_lift_off", "loads_from_smoothed",
+           "ShotEvents", "shot_events"]
 
 STATE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES]
-DERIVATIVE_COLUMNS = [a + s for a in ANGLES for s in SUFFIXES[1:]]
-
-
-def shot_phases(t: np.ndarray, scene: Scene, trigger: float | None, lift_off: float | None,
-                release: float | None) -> np.ndarray:
-    """Phase of each row (int): 0 at rest (``t ≤ trigger``), then the scene's phases: 1 in
-    the trough until ``lift_off``, 2 in the sling until ``release``, 3 after (times in s,
-    the log's time; None = no such event in the log)."""
-    t = np.asarray(t, dtype=float)
-    first = scene.phases[0]
-    phase = np.full(t.size, first, dtype=np.int64)
-    if first == 1 and lift_off is not None:
-        phase[t > lift_off] = 2
-    if first != 3 and release is not None:
-        phase[t > release] = 3
-    if trigger is not None:
-        phase[t <= trigger] = 0
-    return phase
-
-
-def phase_loads(state: pd.DataFrame, phase: np.ndarray, scene: Scene, form: str,
-              trough: str) -> dict[str, np.ndarray]:
-    """The columns of ``loads`` (pandas-free: :func:`~trebuchet.model.loads.load_columns`)
-    on ``state`` with rest rows (phase 0) as the scene's first phase at zero rates and
-    accelerations, and, for ``trough="constraint"``, φ and its derivatives from θ in the
-    trough."""
-    cols = {c: np.asarray(state[c], dtype=float) for c in state.columns}
-    rest = phase == 0
-    first = scene.phases[0]
-    run_phase = np.where(rest, first, phase)
-    if rest.any():
-        for col in DERIVATIVE_COLUMNS:
-            cols[col] = np.where(rest, 0.0, cols[col])
-    if trough == "constraint" and first == 1:
-        sel = run_phase == 1
-        if sel.any():
-            e, H = scene.engine, scene.start.H
-            th, th_d, th_dd = (cols[c][sel] for c in ("theta", "theta_d", "theta_dd"))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                ph = dyn.trough_sling_angle(th, e, H)
-                ph_d = dyn.trough_phi_d(th, ph, th_d, e)
-                ph_dd = dyn.trough_phi_dd(th, ph, th_d, ph_d, th_dd, e)
-            for col, v in (("phi", ph), ("phi_d", ph_d), ("phi_dd", ph_dd)):
-                values = cols[col].copy()
-                values[sel] = v
-                cols[col] = values
-    cols["phase"] = run_phase
-    try:
-        out = load_columns(cols, scene, form=form)
-    except ValueError as exc:  # phase-3 rows without a sling row before them
-        raise TrebuchetInputError(f"reconstruct: {exc}") from None
-    out["phase"] = phase
-    return out
-
-
-def _flight_carry(phase: np.ndarray) -> Callable[[int, int], list[int]]:
-    """``carry`` of a chunked propagation: rows in flight (phase 3) need the last row in the
-    sling (the flight starts from its state) in their chunk."""
-    held = np.flatnonzero(phase != 3)
-    last = int(held[-1]) if held.size else -1
-
-    def carry(lo: int, hi: int) -> list[int]:
-        return [last] if 0 <= last < lo and bool(np.any(phase[lo:hi] == 3)) else []
-
-    return carry
 
 
 def state_frame(est: pd.DataFrame) -> pd.DataFrame:
@@ -141,28 +79,6 @@ def _release_within_sling_track(t: np.ndarray, phi: np.ndarray, release: float) 
     return float(0.5 * (t[last] + t[last + 1]))
 
 
-def event_variance(t: np.ndarray, event: float | None, sd: float,
-                    values: np.ndarray) -> np.ndarray:
-    """Variance (n, m) from the chance that a row lies on the other side of an event whose
-    time (s) has sd ``sd`` (s): ``P(other side) × (load across the event − load)²``, the
-    load across the event taken from the nearest row on the other side."""
-    var = np.zeros_like(values)
-    if event is None or not sd > 0:
-        return var
-    after = t > event
-    if after.all() or not after.any():
-        return var
-    i_before = int(np.flatnonzero(~after)[-1])
-    i_after = int(np.flatnonzero(after)[0])
-    near = np.flatnonzero(np.abs(t - event) < 6.0 * sd)  # only these rows: no (n, m) temporaries
-    p_after = ndtr((t[near] - event) / sd)
-    p_other = np.where(after[near], 1.0 - p_after, p_after)
-    other = np.where(after[near, None], values[i_before][None, :], values[i_after][None, :])
-    diff = np.nan_to_num(other - values[near])
-    var[near] = p_other[:, None] * diff ** 2
-    return var
-
-
 # ----------------------------------------------------------------------------- main
 
 
@@ -176,7 +92,7 @@ def detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scen
     t = state["t"].to_numpy()
     trial = shot_phases(t, scene, trigger, None, None)
     trial[trial == 3] = 1
-    fn = phase_loads(state, trial, scene, options.form, options.trough)["F_N"]
+    fn = evaluate_load_columns(state, trial, scene, options.form, options.trough)["F_N"]
     when = lift_off_time(t, fn, trigger, release)
     if when is None:
         return None, float("nan")
@@ -185,14 +101,15 @@ def detect_lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scen
     sub = state.iloc[rows].reset_index(drop=True)
     sub_cov = {a: c[rows] for a, c in cov.items()}
     # the trial phases have no phase 3, so the rows are independent: one stacked call
-    prop = propagate(lambda s: phase_loads(s, np.resize(trial[rows], len(s)), scene,
-                                         options.form, options.trough),
+    prop = propagate(lambda s: evaluate_load_columns(s, np.resize(trial[rows], len(s)), scene,
+                                                     options.form, options.trough),
                      sub, sub_cov, ["F_N"], order=propagation_order(options), stacked=True)
     sd = lift_off_sd(t[rows], prop.value[:, 0], prop.sd[:, 0], when)
     offset = rest_offset(t, state["theta"].to_numpy(), trigger, scene.start.theta)
     if np.isfinite(offset) and offset != 0.0:  # the angles' common offset moves F_N's zero
         shifted = state.assign(theta=state["theta"].to_numpy() - offset)
-        fn_shifted = phase_loads(shifted, trial, scene, options.form, options.trough)["F_N"]
+        fn_shifted = evaluate_load_columns(shifted, trial, scene, options.form,
+                                           options.trough)["F_N"]
         sd = offset_widened_sd(sd, when, lift_off_time(t, fn_shifted, trigger, release))
     return when, sd
 
@@ -327,12 +244,12 @@ def loads_from_smoothed(est: pd.DataFrame, scene: Scene, *,
                      stone_lift, tracked)
     trigger, release = ev.times["trigger"], ev.times["release"]
     phase = shot_phases(t, scene, trigger, ev.times["lift_off"], release)
-    prop = propagate(lambda s: phase_loads(s, phase[np.asarray(s.index)], scene, options.form,
-                                           options.trough),
+    prop = propagate(lambda s: evaluate_load_columns(s, phase[np.asarray(s.index)], scene,
+                                                     options.form, options.trough),
                      state, cov, order=propagation_order(options), chunk=chunk_rows(len(state)),
-                     carry=_flight_carry(phase), order_names=list(ADVISED), columns=True)
+                     carry=flight_carry(phase), order_names=list(ADVISED), columns=True)
     ev_var = event_variance(t, trigger, ev.sd["trigger"], prop.value)
-    ev_var += event_variance(t, release, ev.sd["release"], prop.value)
+    event_variance(t, release, ev.sd["release"], prop.value, out=ev_var)
     sd = prop.sd  # √(sd² + the events' variance), in place (a 60 s log: 20 MB an array)
     np.sqrt(np.add(np.square(sd, out=sd), ev_var, out=sd), out=sd)
     fps = 1.0 / float(np.median(np.diff(t)))

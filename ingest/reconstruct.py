@@ -76,7 +76,7 @@ from trebuchet.ingest.events.trough_departure import (
 )
 from trebuchet.ingest.geometry.user_calibration import UserCalibration, read_calibration
 from trebuchet.ingest.identification.fitted_loads import fitted_reconstruction
-from trebuchet.ingest.loads_table import STATE_COLUMNS, loads_from_smoothed, shot_phases
+from trebuchet.ingest.loads_table import STATE_COLUMNS, loads_from_smoothed
 from trebuchet.ingest.logs.read_log import MIN_LIKELIHOOD
 from trebuchet.ingest.logs.result import read_log_info
 from trebuchet.ingest.logs.scene_check import SceneCheck, scene_check
@@ -102,6 +102,7 @@ from trebuchet.ingest.smoothing.counterweight_continuation import with_continued
 from trebuchet.ingest.smoothing.inputs import event_named
 from trebuchet.ingest.smoothing.result import smoothing_of, with_smoothing
 from trebuchet.ingest.smoothing.smooth import ANGLES, checked_events, validated_log
+from trebuchet.ingest.state_loads import shot_phases
 from trebuchet.ingest.systematic_angles import systematic_angles, with_systematic_angles
 from trebuchet.ingest.user_calibrated import posed_log
 from trebuchet.model.scene import Scene, as_scene

@@ -2,9 +2,7 @@
 at rest and the trough's constraint handled, and the variance an event time's sd adds.
 
 Shared by the two ways ``reconstruct`` takes the loads: from the smoothed angles
-(:mod:`~trebuchet.ingest.reconstruct`, whose private ``shot_phases``, ``_evaluate``,
-``_flight_carry`` and ``_event_variance`` these are, written once more here while that module is
-being reorganised: it can import them from here) and from the fitted engine
+(:mod:`~trebuchet.ingest.loads_table`) and from the fitted engine
 (:mod:`~trebuchet.ingest.identification.fitted_loads`). Units: SI.
 """
 

@@ -104,21 +104,9 @@ def from_points(
     for role, (x, y) in positions.items():
         flat[f"{role}_x"] = x
         flat[f"{role}_y"] = y
-    return ParsedLog(
-        fmt=source.fmt,
-        t=source.t,
-        rows=source.rows,
-        angles=angles,
-        labels=labels,
-        frame=source.frame,
-        fps=source.fps,
-        points=flat,
-        point_names={role: cand.label for role, cand in chosen.items()},
-        repairs=repairs,
-        leaves_sling=leaves,
-        decisions=decisions,
-        held=tuple(held),
-    )
+    return source.parsed(angles, labels, repairs, decisions, points=flat,
+                         point_names={role: cand.label for role, cand in chosen.items()},
+                         leaves_sling=leaves, held=tuple(held))
 
 
 def _check_positions(x: np.ndarray, y: np.ndarray, rows: np.ndarray, label: str) -> None:

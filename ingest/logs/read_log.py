@@ -385,17 +385,7 @@ def _choose_angles(
         # export holds rates and accelerations beside each angle: those are not news)
         repairs.append(f"column(s) {', '.join(repr(u) for u in unused)} not used (no angle "
                        "of the shot; map one with columns= if it is)")
-    return ParsedLog(
-        fmt=source.fmt,
-        t=source.t,
-        rows=source.rows,
-        angles=angles,
-        labels=labels,
-        frame=source.frame,
-        fps=source.fps,
-        repairs=repairs,
-        decisions=decisions,
-    )
+    return source.parsed(angles, labels, repairs, decisions)
 
 
 def _has_default_angles(source: LogSource) -> bool:

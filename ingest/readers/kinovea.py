@@ -36,9 +36,9 @@ from trebuchet.core.errors import TrebuchetInputError
 from trebuchet.ingest.readers.mapping import Candidate, role_default
 from trebuchet.ingest.readers.source import LogSource
 from trebuchet.ingest.readers.table import (
-    Line,
     header_and_rows,
     numeric_column,
+    point_getter,
     sniff_delimiter,
     table_lines,
 )
@@ -109,7 +109,7 @@ def read_kinovea(numbered: list[tuple[int, str]], fps: float | None,
                 label=name,
                 aliases=frozenset(aliases),
                 default=default,
-                data=_point_getter(data, ix, iy, name),
+                data=point_getter(data, ix, iy, f"{name}/X", f"{name}/Y"),
             )
         )
     return LogSource(
@@ -150,16 +150,3 @@ def _point_columns(header: list[str]) -> dict[str, tuple[int, int]]:
             raise TrebuchetInputError(f"column '{name}/X' has no '{name}/Y'")
         pairs[name] = (ix, ys[name])
     return pairs
-
-
-def _point_getter(data: list[Line], ix: int, iy: int, name: str):
-    """A function returning (x, y, None) of one Kinovea point, y up."""
-
-    def get() -> tuple[np.ndarray, np.ndarray, None]:
-        return (
-            numeric_column(data, ix, f"{name}/X"),
-            numeric_column(data, iy, f"{name}/Y"),
-            None,
-        )
-
-    return get

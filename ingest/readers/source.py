@@ -79,3 +79,14 @@ class LogSource:
     rates: dict = field(default_factory=dict)
     decisions: list[str] = field(default_factory=list)
     y_down: bool | None = False
+
+    def parsed(self, angles: dict[str, np.ndarray], labels: dict[str, str], repairs: list[str],
+               decisions: list[str], **chosen: object) -> ParsedLog:
+        """The :class:`ParsedLog` of this source's rows (its ``fmt``, ``t``, ``rows``,
+        ``frame``, ``fps``) with the ``angles`` (rad) chosen from it, their ``labels``, the
+        ``repairs`` and ``decisions`` (sentences), and ``chosen``: the further fields of
+        :class:`ParsedLog` a point file fills (``points``, ``point_names``,
+        ``leaves_sling``, ``held``)."""
+        return ParsedLog(fmt=self.fmt, t=self.t, rows=self.rows, angles=angles, labels=labels,
+                         frame=self.frame, fps=self.fps, repairs=repairs, decisions=decisions,
+                         **chosen)

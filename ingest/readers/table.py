@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -188,6 +189,18 @@ def numeric_column(
             )
         out[k] = value
     return out
+
+
+def point_getter(lines: list[Line], ix: int, iy: int, x_name: str, y_name: str
+                 ) -> Callable[[], tuple[np.ndarray, np.ndarray, None]]:
+    """A function returning ``(x, y, None)`` of a point track: columns ``ix`` and ``iy`` of
+    the data ``lines`` (:func:`numeric_column`, named ``x_name``, ``y_name`` in messages;
+    the file's length unit, y up), read only when called."""
+
+    def get() -> tuple[np.ndarray, np.ndarray, None]:
+        return numeric_column(lines, ix, x_name), numeric_column(lines, iy, y_name), None
+
+    return get
 
 
 def check_row_lengths(lines: list[Line], n_columns: int) -> None:

@@ -32,6 +32,7 @@ from trebuchet.ingest.readers.table import (
     Line,
     check_row_lengths,
     numeric_column,
+    point_getter,
     split_cells,
     table_lines,
 )
@@ -160,7 +161,8 @@ def read_tracker(numbered: list[tuple[int, str]], fps: float | None,
                     label=track,
                     aliases=frozenset({track}),
                     default=role_default(track),
-                    data=_point_getter(data, by_name["x"], by_name["y"], track),
+                    data=point_getter(data, by_name["x"], by_name["y"], f"{track}/x",
+                                      f"{track}/y"),
                 )
             )
     return LogSource(
@@ -214,14 +216,3 @@ def _angle_getter(
 def _raw_getter(data: list[Line], index: int, label: str):
     """A function returning a column as written."""
     return lambda: numeric_column(data, index, label)
-
-
-def _point_getter(data: list[Line], ix: int, iy: int, track: str):
-    """A function returning (x, y, None) of a point-mass track, in the file's unit, y up."""
-
-    def get() -> tuple[np.ndarray, np.ndarray, None]:
-        x = numeric_column(data, ix, f"{track}/x")
-        y = numeric_column(data, iy, f"{track}/y")
-        return x, y, None
-
-    return get

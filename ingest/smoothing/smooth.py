@@ -160,25 +160,8 @@ def smooth(
     sd = _initial_noise_sd(t, Z, [r_in[a] for a in tracked])
     trigger, events_found = _trigger(t, Z, sd, given, settings)
     p = _problem(t, Z, tracked, sd, trigger, k, q_in, r_in, settings)
-    release = given.get("release")
-    fit, nearest = first_tuning(p, given, release, tuned)
-    fit, nearest, release, how = release_scan(p, fit, nearest, given, release)
-    events_found["sources"]["release"] = how
-    if p.shaped:
-        fit = shaped_noise(p, fit, nearest, scan="release" not in given,
-                            released=fit.rel_s is not None)
-    del nearest  # its histories (n, A, k, k): not held through the bands
-
-    xs, Ps = fit.sm.x[:, :p.A], fit.sm.P[:, :p.A]
-    jump_gain, jump_count = jump_profile(fit.steps.G, p.kick, fit.sm.r[:, :p.A],
-                                         fit.sm.N[:, :p.A])
-    if backend == "filterpy":
-        xs, Ps = _filterpy_pass(p, fit)
-    band_scale = np.ones((p.A, p.n))
-    if settings.band_variance != "posterior":
-        Ps, band_scale = calibrated_band(p, fit, xs, Ps)
-    if settings.bias_band:
-        Ps = bias_band(p, fit, xs, Ps)
+    fit, release, events_found["sources"]["release"] = _tuned_noise(p, given, tuned)
+    xs, Ps, band_scale, jump_gain, jump_count = _final_states(p, fit, backend, settings)
     out, noise, cov, loglik = _assembled(log, p, fit, xs, Ps, band_scale, jump_gain,
                                          jump_count, notes)
     found = {"trigger": trigger, "release": release}
@@ -258,6 +241,44 @@ def _problem(t: np.ndarray, Z: np.ndarray, tracked: list[str], sd: np.ndarray,
         r2_given=np.array([r_in[a] ** 2 for a in tracked]), r2_ref=sd**2,
         grid=lambda_grid(k, tau, t[-1] - t[0], settings.noise), jerk_time=jerk_time,
         trig_s=None if trigger is None else (trigger - t[0]) / tau, settings=settings)
+
+
+def _tuned_noise(p: SmoothingProblem, given: Mapping[str, float | None],
+                 tuned: Mapping[str, Mapping[str, float]] | None
+                 ) -> tuple[TuningState, float | None, str]:
+    """The noise fit of the smoothing and its release: the first tuning
+    (:func:`first_tuning`, or ``tuned``'s noise), the release scanned (given, or the
+    search of :func:`release_scan`: log time, s, or None) with how it was found (a
+    phrase), then, for local noise (``p.shaped``), the noise's shape fitted
+    (:func:`shaped_noise`); the fit in the problem's units (frames)."""
+    release = given.get("release")
+    fit, nearest = first_tuning(p, given, release, tuned)
+    fit, nearest, release, how = release_scan(p, fit, nearest, given, release)
+    if p.shaped:
+        fit = shaped_noise(p, fit, nearest, scan="release" not in given,
+                            released=fit.rel_s is not None)
+    return fit, release, how
+
+
+def _final_states(p: SmoothingProblem, fit: TuningState, backend: str,
+                  settings: SmoothSettings) -> tuple[np.ndarray, ...]:
+    """The final pass: the smoothed states ``xs`` (n, A, k) and their covariances ``Ps``
+    (n, A, k, k; rad and per-frame rates, as the fit's), through filterpy for
+    ``backend="filterpy"``, the band's variance calibrated (``band_scale`` (A, n), 1 for
+    ``band_variance="posterior"``) and widened by the bias band (``settings.bias_band``),
+    and each angle's jump profile (``jump_gain``, ``jump_count``:
+    :func:`jump_profile`)."""
+    xs, Ps = fit.sm.x[:, :p.A], fit.sm.P[:, :p.A]
+    jump_gain, jump_count = jump_profile(fit.steps.G, p.kick, fit.sm.r[:, :p.A],
+                                         fit.sm.N[:, :p.A])
+    if backend == "filterpy":
+        xs, Ps = _filterpy_pass(p, fit)
+    band_scale = np.ones((p.A, p.n))
+    if settings.band_variance != "posterior":
+        Ps, band_scale = calibrated_band(p, fit, xs, Ps)
+    if settings.bias_band:
+        Ps = bias_band(p, fit, xs, Ps)
+    return xs, Ps, band_scale, jump_gain, jump_count
 
 
 def _filterpy_pass(p: SmoothingProblem, fit: TuningState) -> tuple[np.ndarray, np.ndarray]:
