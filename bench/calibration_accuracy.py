@@ -30,7 +30,7 @@ RAW = {"theta": ("pivot", "spigot"), "psi": ("hinge", "counterweight"),
 
 
 def _scene(name: str) -> Scene:
-    root = Path(__file__).resolve().parents[2] / "data_samples"
+    root = Path(__file__).resolve().parents[1] / "data_samples"
     return Scene.from_toml(root / SCENES[name])
 
 
