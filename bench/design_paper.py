@@ -8,8 +8,10 @@ the release). The grid: 16 × 13 × 14 = 2912 designs, evenly spaced, both ends 
 simulation (`bench/_independent_shot.py`: the Lagrangian derived with sympy, scipy's
 solve_ivp, loads from Newton's law on each body; none of the package's model), the next best
 taken while a check fails. Then `trebuchet design` (differential evolution + SLSQP) with
-three seeds, each best checked the same way. The sweep is timed twice, before and after the
-searches, and the faster of the two is the baseline of ``time_ratio``.
+three seeds, each best checked the same way. The sweep is timed before and after the
+searches, and the faster of the two is the baseline of ``time_ratio``. The machine is shared
+and each run takes well under a second: every time is the least of :data:`REPEATS` runs
+(``BENCH_REPEATS``; another process's load only ever adds).
 
 Targets: every search's independently checked range at least 99.5 % of the checked grid
 best's, every limit met by the independent check, in at most 0.5 × the sweep's time.
@@ -21,6 +23,7 @@ its own peak loads (docs/design.md).
 from __future__ import annotations
 
 import math
+import os
 import platform
 import sys
 import time
@@ -72,13 +75,25 @@ def _row(label: str, designs: int, seconds: float, own_range: float, check: dict
             "cw_clearance_m": check["cw_clearance"], "limits_met_checked": met}
 
 
+REPEATS = int(os.environ.get("BENCH_REPEATS", "3"))
+
+
+def _timed(call):
+    """``call()``'s result and the least wall time of :data:`REPEATS` runs of it (s)."""
+    best = math.inf
+    for _ in range(max(1, REPEATS)):
+        t0 = time.perf_counter()
+        result = call()
+        best = min(best, time.perf_counter() - t0)
+    return result, best
+
+
 def run(out_dir: str | Path | None = None) -> pd.DataFrame:
     base = base_scene()
     lims = limits(base)
     grid = {k: list(np.linspace(*VARY[k], COUNTS[k])) for k in VARY}
-    t0 = time.perf_counter()
-    table = sweep(base, grid, progress=False)
-    sweep_s = [time.perf_counter() - t0]
+    table, first = _timed(lambda: sweep(base, grid, progress=False))
+    sweep_s = [first]
     ok = table[table["status"] == "ok"]
     for text in lims:
         lim = parse_limit(text)
@@ -93,15 +108,12 @@ def run(out_dir: str | Path | None = None) -> pd.DataFrame:
             break
     grid_best = rows[0]["checked_range_m"]
     for seed in SEEDS:
-        t0 = time.perf_counter()
-        res = design(base, VARY, maximize="range", limits=lims, seed=seed)
-        seconds = time.perf_counter() - t0
+        res, seconds = _timed(lambda seed=seed: design(base, VARY, maximize="range",
+                                                       limits=lims, seed=seed))
         check, met = _checked(res.scene, lims)
         rows.append(_row(f"design, seed {seed}", res.evaluations, seconds, res.value, check,
                          met, base))
-    t0 = time.perf_counter()
-    sweep(base, grid, progress=False)
-    sweep_s.append(time.perf_counter() - t0)
+    sweep_s.append(_timed(lambda: sweep(base, grid, progress=False))[1])
     baseline = min(sweep_s)
     out = pd.DataFrame(rows)
     out["time_ratio"] = out["seconds"] / baseline
@@ -109,7 +121,8 @@ def run(out_dir: str | Path | None = None) -> pd.DataFrame:
     searches = out.iloc[1:]
     out.attrs["notes"] = [
         f"the sweep took {sweep_s[0]:.2f} s and {sweep_s[1]:.2f} s (before and after the "
-        f"searches); time_ratio is over the faster, {default_workers()} worker processes each",
+        f"searches, each the least of {REPEATS} runs); time_ratio is over the faster, "
+        f"{default_workers()} worker processes each",
         "targets: range_share >= 0.995, every limit met when checked, time_ratio <= 0.5; met: "
         f"range {bool((searches['range_share'] >= 0.995).all())}, limits "
         f"{bool(searches['limits_met_checked'].all())}, time "
