@@ -145,16 +145,23 @@ def test_journal_of_another_sweep_refused(tmp_path, horsdal):
 GRID_ARGS = ["--grid", "engine.M=15000:22000:20", "--grid",
              "release.velocity_angle_deg=30:50:10", "--accuracy", "fast", "--quiet"]  # 200
 #: The command line with every design slowed by TB_TEST_DELAY s, so that a test can act
-#: while it runs.
+#: while it runs (in worker processes one design a call, in this process a chunk a call).
 _SLOW_CLI = """
 import os, sys, time
 from trebuchet import cli
 from trebuchet.model import sweep
 real, delay = sweep.evaluate_design, float(os.environ["TB_TEST_DELAY"])
+real_many = sweep.evaluate_designs
 def slow(base, item, **kw):
     time.sleep(delay)
     return real(base, item, **kw)
-sweep.evaluate_design = slow
+def slow_many(base, items, **kw):  # workers=1: a chunk of designs a call of the C
+    rows = []
+    for item in items:  # a design at a time, so that rows come in while the test acts
+        time.sleep(delay)
+        rows += real_many(base, [item], **kw)
+    return rows
+sweep.evaluate_design, sweep.evaluate_designs = slow, slow_many
 sys.exit(cli.main(sys.argv[1:]))
 """
 
