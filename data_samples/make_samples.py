@@ -30,6 +30,22 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from trebuchet.data_samples.sample_formats import (  # noqa: F401 - the script's own names too
+    DLC_NAMES,
+    DLC_SCORER,
+    KINOVEA_NAMES,
+    ROLES,
+    central_rate,
+    deeplabcut_text,
+    fmt,
+    generic_text,
+    java_sci,
+    kinovea_text,
+    sling_branch_note,
+    tracker_text,
+    wrap_deg,
+)
+from trebuchet.data_samples.sample_readme import readme_text
 from trebuchet.model.scene import Scene
 from trebuchet.model.simulate import simulate
 
@@ -57,22 +73,12 @@ BACKYARD: dict[str, dict[str, float]] = {
     "environment": {"g": 9.81},
 }
 
-#: Kinovea point names (object/point) and the read_log ``points=`` mapping for them.
-KINOVEA_NAMES = {
-    "pivot": "Beam/axle",
-    "spigot": "Beam/tip",
-    "hinge": "Beam/hinge",
-    "counterweight": "Weight/centre",
-    "projectile": "Stone/centre",
-}
+#: The read_log ``points=`` mapping for the Kinovea sample's point names.
 KINOVEA_POINTS = {"pivot": "axle", "spigot": "tip", "hinge": "hinge",
                   "counterweight": "Weight", "projectile": "Stone"}
 
-#: DeepLabCut bodypart names and the read_log ``points=`` mapping for them.
-DLC_NAMES = {"pivot": "axle", "spigot": "arm_tip", "hinge": "hinge",
-             "counterweight": "weight", "projectile": "stone"}
+#: The read_log ``points=`` mapping for the DeepLabCut sample's bodypart names.
 DLC_POINTS = dict(DLC_NAMES)
-DLC_SCORER = "DLC_resnet50_trebuchetJun17shuffle1_200000"
 #: Camera of the DeepLabCut sample: px per m, and the pixel of the model's origin.
 DLC_SCALE = 40.0
 DLC_ORIGIN = (900.0, 1040.0)
@@ -80,8 +86,6 @@ DLC_NOISE_PX = 1.0
 
 TRACKER_COLUMNS = {"beam": "theta", "arm": "psi", "sling": "phi"}
 TRACKER_EU_COLUMNS = {"Balken": "theta", "Arm": "psi", "Schlinge": "phi"}
-
-ROLES = ("pivot", "spigot", "hinge", "counterweight", "projectile")
 
 
 # ------------------------------------------------------------------------------ the truth
@@ -168,104 +172,6 @@ def blank_cells(rng: np.random.Generator, values: np.ndarray, count: int) -> lis
         values[r, c] = np.nan
         where.append((int(r), c))
     return where
-
-
-# ------------------------------------------------------------------------------ formats
-
-
-def fmt(value: float, spec: str) -> str:
-    """``format(value, spec)``, empty for NaN."""
-    return "" if not math.isfinite(value) else format(value, spec)
-
-
-def java_sci(value: float, comma: bool) -> str:
-    """Java DecimalFormat ``0.000000E0`` (Tracker's unformatted export); empty for NaN."""
-    if not math.isfinite(value):
-        return ""
-    mantissa, exponent = f"{value:.6E}".split("E")
-    text = f"{mantissa}E{int(exponent)}"
-    return text.replace(".", ",") if comma else text
-
-
-def wrap_deg(d: np.ndarray) -> np.ndarray:
-    """Angles (deg) into (−180, 180], as Tracker's protractor reports them."""
-    return d - 360.0 * np.ceil((d - 180.0) / 360.0)
-
-
-def sling_branch_note(shown: np.ndarray) -> str:
-    """Where the first written sling angle (deg) lies, and what that means when read."""
-    first = float(shown[np.isfinite(shown)][0])
-    text = f"first sling value {first:+.1f}°"
-    if first > 0:
-        text += "; `read_log` moves each angle to the paper's start branch and reports it"
-    return text
-
-
-def central_rate(t: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """Tracker's ω: ``(θ[i+1] − θ[i−1]) / (t[i+1] − t[i−1])``, NaN without both neighbours."""
-    out = np.full(len(d), np.nan)
-    out[1:-1] = (d[2:] - d[:-2]) / (t[2:] - t[:-2])
-    return out
-
-
-def generic_text(comment: str, t: np.ndarray, deg: np.ndarray, keep: np.ndarray) -> str:
-    """A generic log: a comment line, ``t (s),theta (deg),psi (deg),phi (deg)``, rows."""
-    lines = [f"# {comment}", "t (s),theta (deg),psi (deg),phi (deg)"]
-    for k in np.nonzero(keep)[0]:
-        lines.append(",".join([f"{t[k]:.6f}"] + [fmt(v, ".3f") for v in deg[k]]))
-    return "\n".join(lines) + "\n"
-
-
-def tracker_text(
-    names: Sequence[str],
-    header: Sequence[str],
-    rows: list[list[str]],
-    delimiter: str,
-    newline: str,
-) -> str:
-    """Tracker's multi-track export: ``#multi:``, track names, column names, data rows.
-
-    As Tracker writes it: the name row and the header end with the delimiter, the data
-    rows do not; ``header`` is the columns of one track (repeated for each).
-    """
-    name_row = delimiter + "".join(n + delimiter * len(header) for n in names)
-    head = "t" + delimiter + "".join(c + delimiter for _ in names for c in header)
-    lines = ["#multi:", name_row, head] + [delimiter.join(r) for r in rows]
-    return newline.join(lines) + newline
-
-
-def kinovea_text(t_ms: np.ndarray, points: dict[str, tuple[np.ndarray, np.ndarray]]) -> str:
-    """Kinovea trajectory CSV (English locale): quoted cells, ``,``, time in whole ms, CRLF."""
-    head = ['"Time"']
-    for role in ROLES:
-        head += [f'"{KINOVEA_NAMES[role]}/X"', f'"{KINOVEA_NAMES[role]}/Y"']
-    lines = [",".join(head)]
-    for k, ms in enumerate(t_ms):
-        cells = [f'"{int(ms)}"']
-        for role in ROLES:
-            x, y = points[role]
-            for v in (x[k], y[k]):
-                cells.append(f'"{v:.3f}"' if math.isfinite(v) else "")
-        lines.append(",".join(cells))
-    return "\r\n".join(lines) + "\r\n"
-
-
-def deeplabcut_text(frames: np.ndarray, px: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
-                    ) -> str:
-    """DeepLabCut CSV: scorer, bodyparts, coords rows, then frame index, x, y, likelihood."""
-    parts = [DLC_NAMES[r] for r in ROLES]
-    lines = [
-        ",".join(["scorer"] + [DLC_SCORER] * (3 * len(parts))),
-        ",".join(["bodyparts"] + [p for p in parts for _ in range(3)]),
-        ",".join(["coords"] + ["x", "y", "likelihood"] * len(parts)),
-    ]
-    for k, f in enumerate(frames):
-        cells = [str(int(f))]
-        for role in ROLES:
-            x, y, p = px[role]
-            cells += [f"{x[k]:.4f}", f"{y[k]:.4f}", f"{p[k]:.4f}"]
-        lines.append(",".join(cells))
-    return "\n".join(lines) + "\n"
 
 
 # ------------------------------------------------------------------------------ samples
@@ -485,145 +391,9 @@ def build() -> list[Sample]:
     samples.append(Sample(BACKYARD_SCENE, backyard_scene_text(),
                           "Scene file of the backyard engine (tests/conftest.py BACKYARD), "
                           "for `backyard_240fps.csv`."))
-    samples.append(Sample("README.md", readme_text(samples), ""))
+    samples.append(Sample("README.md", readme_text(samples, seed=SEED, trigger=TRIGGER,
+                                                    before=BEFORE, after=AFTER), ""))
     return samples
-
-
-#: Scene files with friction in the bearings (hand-written, not by this script): their rows
-#: of the README's table.
-FRICTION_SCENES = (
-    ("horsdal_friction.toml",
-     "Scene file: the paper's engine (`horsdal_large.toml`) with Coulomb friction in its "
-     "bearings, μ 0.15 on a 0.10 m shaft and a 0.06 m hinge pin (`[friction]`, "
-     "docs/scenes.md): it loses 12.6 kJ, 5.0 % of ΔU, by the release. Hand-written."),
-    ("small_fast.toml",
-     "Scene file: a small fast backyard engine (L1 1.5 m, M 100 kg, m 0.5 kg, released at a "
-     "40° climb), whose bearing load peaks for about 23 ms, with friction μ 0.3 on a 12.5 mm "
-     "shaft radius and a 10 mm pin radius: it loses 8.7 % of ΔU by the release. "
-     "Hand-written."),
-)
-
-#: The shot tracked from rendered video (written by ``python -m bench.video.sample``, not by
-#: this script): its rows of the README's table.
-TRACKED_VIDEO = (
-    ("video_tilted_dlc.csv",
-     "DeepLabCut CSV tracked from rendered video of `video_tilted.toml` (the paper's engine, "
-     "equal to `horsdal_large.toml`): a simulated camera 40 m away pitched up 10°, rolled "
-     "0.3°, radial distortion k1 = −0.03, 640×480 px, 120 fps at a 1/250 s shutter (motion "
-     "blur), lens blur 0.8 px, sensor noise 2 grey levels, the near frame's legs and brace in "
-     "front of the engine; markers tracked by masked template matching (OpenCV) from clicks "
-     "on frame 0 only (0.25 px sd), likelihood = match score; bodyparts `pivot`, `spigot`, "
-     "`hinge`, `counterweight`, `projectile` in image pixels (y down, not undistorted); "
-     "frame index 0–263 from the start of the video (trigger at frame 120, t = 1 s; release "
-     "at 1.997 s); 76 positions with likelihood below 0.9 (hinge 19 and counterweight 23 "
-     "behind frame members, stone 34 blurred or in flight). Seed `15`. Written by "
-     "`python -m bench.video.sample` (bench/video), not by make_samples.py. Read: "
-     "`read_log(path, fps=120)`; `trebuchet forces data_samples/video_tilted_dlc.csv "
-     "--scene data_samples/video_tilted.toml --fps 120`."),
-    ("video_tilted.toml",
-     "Scene file of `video_tilted_dlc.csv`: the paper's engine (equal to "
-     "`horsdal_large.toml`) with a header naming the camera."),
-    ("video_paper_dlc.csv",
-     "DeepLabCut CSV tracked from rendered video of `video_paper.toml` (the paper's engine, "
-     "equal to `horsdal_large.toml`), the tracked shot of `make demo`: a simulated camera "
-     "40 m away pitched up 4°, rolled 0.5°, radial distortion k1 = −0.02, 640×480 px, 240 "
-     "fps at a 1/1000 s shutter, lens blur, sensor noise, the near frame's legs and brace in "
-     "front of the engine; markers tracked by masked template matching (OpenCV) from clicks "
-     "on frame 0 only, likelihood = match score; bodyparts `pivot`, `spigot`, `hinge`, "
-     "`counterweight`, `projectile` in image pixels (y down, not undistorted); frame index "
-     "0–527 (trigger at frame 240, t = 1 s; release at 1.997 s); 128 positions with "
-     "likelihood below 0.9 (hinge 41 and counterweight 40 behind frame members, stone 47 in "
-     "flight). Seed `16`. Written by `python -m bench.video.sample` (bench/video), not by "
-     "make_samples.py. Read: `read_log(path, fps=240, calibration="
-     "'data_samples/video_paper_points.csv')`; `trebuchet forces "
-     "data_samples/video_paper_dlc.csv --scene data_samples/video_paper.toml --fps 240 "
-     "--calibration data_samples/video_paper_points.csv`."),
-    ("video_paper.toml",
-     "Scene file of `video_paper_dlc.csv`: the paper's engine (equal to `horsdal_large.toml`) "
-     "with a header naming the camera."),
-    ("video_paper_points.csv",
-     "The user's own calibration of `video_paper_dlc.csv`'s camera: six points of the "
-     "engine's plane surveyed before the shot (`x (m)`, `y (m)`: the paper's axes, ground "
-     "under the pivot at 0) and their pixels `u (px)`, `v (px)` (rows down) as clicked on "
-     "the first frame, 0.5 px sd. Read by `calibration=` / `--calibration` (docs/formats.md): "
-     "a homography, reprojection residual 0.43 px."),
-    ("video_paper_camera.yml",
-     "The camera of `video_paper_dlc.csv` as OpenCV's FileStorage YAML (`camera_matrix`, "
-     "`distortion_coefficients`, `image_width`, `image_height`): fixes the lens; "
-     "`reconstruct` then finds the 4° tilt from the engine's geometry (docs/formats.md)."),
-)
-
-#: The README's section on reading each sample from the command line (issue 17: the hints
-#: and this page speak the shell user's options, not only Python's keywords).
-COMMAND_LINE = [
-    '## On the command line',
-    '',
-    'Every `Read:` call above has its command-line form; `forces` and `compare` take the same',
-    'options (`compare` writes a report folder instead of a CSV file):',
-    '',
-    '    S=data_samples',
-    '    trebuchet forces $S/horsdal_240fps.csv --scene $S/horsdal_large.toml -o loads.csv',
-    '    trebuchet forces $S/horsdal_tracker.txt --scene $S/horsdal_large.toml -o loads.csv \\',
-    '        --column beam=theta --column arm=psi --column sling=phi',
-    '    trebuchet forces $S/horsdal_tracker_multi_decimal_comma.txt '
-    '--scene $S/horsdal_large.toml \\',
-    '        -o loads.csv --column Balken=theta --column Arm=psi --column Schlinge=phi',
-    '    trebuchet forces $S/horsdal_kinovea.csv --scene $S/horsdal_large.toml -o loads.csv \\',
-    '        --fps 240 --point pivot=axle --point spigot=tip --point hinge=hinge \\',
-    '        --point counterweight=Weight --point projectile=Stone',
-    '    trebuchet forces $S/horsdal_dlc.csv --scene $S/horsdal_large.toml -o loads.csv \\',
-    '        --fps 120 --point pivot=axle --point spigot=arm_tip --point hinge=hinge \\',
-    '        --point counterweight=weight --point projectile=stone     # --min-likelihood 0.9',
-    '    trebuchet forces $S/backyard_240fps.csv --scene $S/backyard.toml -o loads.csv',
-    '    trebuchet forces $S/video_paper_dlc.csv --scene $S/video_paper.toml -o loads.csv \\',
-    '        --fps 240 --calibration $S/video_paper_points.csv   # or $S/video_paper_camera.yml',
-    '    trebuchet compare $S/horsdal_dlc.csv --scene $S/horsdal_large.toml -o report/ \\',
-    '        --fps 120 --point pivot=axle ...  '
-    '# the same options, and --trigger, --lift-off, --release',
-    '',
-    "Without the naming options a file whose names are not the angles' own is refused with the",
-    'option that names them (`--column`, `--point`, `--fps`); from Python the same refusal names',
-    'the keyword (`columns=`, `points=`, `fps=`).',
-]
-
-
-def readme_text(samples: list[Sample]) -> str:
-    """The README of the samples: what is synthetic, how each file was made and is read."""
-    lines = [
-        "# Sample logs: SYNTHETIC",
-        "",
-        "**Every log in this folder is SYNTHETIC: made by the simulator, not measured.** "
-        "They were written by `data_samples/make_samples.py` (run "
-        "`.venv/bin/python data_samples/make_samples.py [--out DIR]`; deterministic, master "
-        f"seed {SEED}, each file drawing from `numpy.random.default_rng([{SEED}, index])`).",
-        "",
-        "How they were made: `trebuchet.simulate` of the scene named below at the frame times, "
-        f"the engine at rest at its start pose before the trigger at video time {TRIGGER:g} s "
-        f"(the log's time does not start at the trigger), from about {BEFORE:g} s before the "
-        f"trigger (DeepLabCut: from frame 0) to {AFTER:g} s after release, then Gaussian noise "
-        "(independent per angle or per coordinate and frame) and lost frames. The sling "
-        "angle (or the projectile point) ends at release, as a tracker loses the sling. "
-        "Positions are in the model's axes: origin on the ground under the pivot, x right, "
-        "y up; pivot (0, H), spigot = pivot + L1 e_θ, hinge = pivot − L2 e_θ, counterweight = "
-        "hinge + L3 e_ψ, projectile = spigot + L4 e_φ.",
-        "",
-        "`horsdal_large.toml` is the paper's engine (Table 1); `horsdal_240fps.csv` is the "
-        "sample of `make demo`, `video_paper_dlc.csv` its tracked shot (with its "
-        "calibration `video_paper_points.csv`).",
-        "",
-        "| file | what it holds |",
-        "|---|---|",
-    ]
-    for s in samples:
-        lines.append(f"| `{s.name}` | {s.readme} |")
-    lines += [f"| `{name}` | {text} |" for name, text in (*TRACKED_VIDEO, *FRICTION_SCENES)]
-    lines += [""] + COMMAND_LINE + [
-        "",
-        "Angle noise of the point files follows from the position noise: about "
-        "√2 σ / L for an angle between two points L apart (θ: L1, ψ: L3, φ: L4).",
-        "",
-    ]
-    return "\n".join(lines)
 
 
 # ------------------------------------------------------------------------------ writing
