@@ -7,11 +7,7 @@
   angle's noise variance profiled out; the likelihood is profiled over ``t0`` on a frame
   grid and then at a tenth of a frame, and its normalised profile gives the estimate (its
   mean) and its sd. An unconstrained cubic let noise at rest pass for a dip before the
-  rise: 10–30 frames early in some logs at 0.3–2° noise. Each moving angle's own onset
-  checks the joint one: one more than 2 sd of their difference away widens its sd to
-  cover it (on the stress grid a sling angle whose onset came 2.5 frames late, sd 0.25
-  frame, pulled the joint onset 2.15 frames late with an sd of 0.23, where the beam's own
-  was 0.17 frame early).
+  rise: 10–30 frames early in some logs at 0.3–2° noise.
 - Release: the acceleration of the angles jumps (the sling tension vanishes), and the
   sling's track often ends. Found as the largest likelihood-ratio statistic of a jump in
   acceleration, from the backward smoothing recursion (de Jong 1989; Durbin & Koopman
@@ -23,7 +19,6 @@ Lift-off needs forces and is found elsewhere. All times in the log's own time (s
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -206,11 +201,9 @@ def trigger_estimate(
     if hi_t <= lo_t:
         return None
 
-    def loglik(t0: np.ndarray, angles: list[int] = use) -> np.ndarray:
+    def loglik(t0: np.ndarray) -> np.ndarray:
         total = np.zeros(t0.size)
         for a, e in zip(use, ends, strict=True):
-            if a not in angles:
-                continue
             z = Z[a, : e + 1]
             m = int(np.isfinite(z).sum())
             total -= 0.5 * m * np.log(_onset_sse(t[: e + 1], z, t0))
@@ -219,25 +212,12 @@ def trigger_estimate(
     frames = int(np.ceil((hi_t - lo_t) / dt))
     stride = max(1, frames // settings.coarse_candidates)
     coarse = np.linspace(lo_t, hi_t, frames // stride + 1)
-    profile = (dt, settings.profile_drop, settings.subframe_steps, settings.max_fine_candidates)
-    mean, spread, _ = refined_profile(loglik, coarse, loglik(coarse), *profile)
+    mean, spread, _ = refined_profile(loglik, coarse, loglik(coarse), dt,
+                                      settings.profile_drop, settings.subframe_steps,
+                                      settings.max_fine_candidates)
     if mean - t[first_valid] < (settings.min_rest_frames - 0.5) * dt:
         return None
-    for a in use if len(use) > 1 else ():  # each angle's own onset checks the joint one
-        def alone(t0: np.ndarray, a: int = a) -> np.ndarray:
-            return loglik(t0, [a])
-
-        own, own_sd, _ = refined_profile(alone, coarse, alone(coarse), *profile)
-        if abs(own - mean) > 2.0 * np.hypot(own_sd, spread):
-            spread = max(spread, covering_sd(spread, own - mean))
     return mean, spread
-
-
-def covering_sd(sd: float, gap: float) -> float:
-    """The sd (s) of an estimate ``sd`` (s) whose rival lies ``gap`` (s) away: the event
-    anywhere between the two (uniform, RMS distance from the estimate ``|gap|/√3``) in
-    quadrature with its own sd, so that ±2 sd reach past the rival."""
-    return float(math.hypot(sd, abs(gap) / math.sqrt(3.0)))
 
 
 def refined_profile(loglik: Callable[[np.ndarray], np.ndarray], coarse: np.ndarray,

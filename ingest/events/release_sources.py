@@ -50,7 +50,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from trebuchet.ingest.events.detection import covering_sd
 from trebuchet.ingest.events.release_model import ModelRelease
 from trebuchet.ingest.events.stone_flight import StoneRelease
 
@@ -162,6 +161,13 @@ class ReleaseChoice:
 
 def _ms(seconds: float) -> str:
     return f"{1e3 * seconds:.1f} ms"
+
+
+def covering_sd(sd: float, gap: float) -> float:
+    """The sd (s) of an estimate ``sd`` (s) whose rival lies ``gap`` (s) away: the release
+    anywhere between the two (uniform, RMS distance from the estimate ``|gap|/√3``) in
+    quadrature with its own sd, so that ±2 sd reach past the rival."""
+    return float(math.hypot(sd, abs(gap) / math.sqrt(3.0)))
 
 
 def scene_reach(span: float, frame: float, trigger_sd: float = 0.0) -> tuple[float, float]:
