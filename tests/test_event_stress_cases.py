@@ -90,3 +90,14 @@ def test_disagreeing_stone_and_equations_both_late_are_checked_against_the_scene
     assert _covered(c.time, c.sd, 1.05080, c.warning)
     assert "disagree" in c.warning and "scene's own" in c.warning
     assert np.isfinite(c.sd)
+
+
+def test_a_lift_off_whose_own_sd_is_wide_is_still_checked_against_a_far_scene():
+    """Cell 1011 (small fast engine, adaptive template, 120 fps): a tracking gap had
+    widened the normal force's sd to 1.7 frames; it lay 3.8 frames late, just inside 2 sd
+    of its difference from the scene's own lift-off, but further than a tenth of the span
+    from it."""
+    frame = 1 / 120
+    lift, sd = 0.52527, 0.014466
+    wide, said = timing_widened_sd(lift, sd, 0.49676, 0.19356, frame, 0.04 * frame)
+    assert _covered(lift, wide, 0.49356, said)

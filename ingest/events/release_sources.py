@@ -57,7 +57,7 @@ __all__ = ["ReleaseChoice", "TrackEndRelease", "TrackEnd", "SceneTiming",
            "release_at_track_end", "release_without_track_end", "covering_sd",
            "LOST_TRACK_SD", "KINDS", "MIN_FLIGHT_FRAMES", "timing_checked",
            "SCENE_TIMING_SHARE", "STONE_ALONE_FLOOR_FRAMES", "LOOSE_MODEL_FRAMES",
-           "scene_reach", "scene_covering_sd"]
+           "SCENE_TIMING_FAR", "scene_reach", "scene_covering_sd"]
 
 #: A sling track that ends is a lost track, not the release, where the engine's equations
 #: put the release this many of their sd after the first frame the track misses (at 1 sd,
@@ -129,6 +129,11 @@ class SceneTiming:
 #: the equations' release 6 frames late where the sling's track went on, a track's end
 #: 4 frames early that equations with a 9-frame sd "confirmed".
 SCENE_TIMING_SHARE = 0.01
+#: A source further than this share of the span from the scene's own time disagrees with
+#: it whatever the sds say (the rule before :data:`SCENE_TIMING_SHARE`'s: a lift-off whose
+#: own sd a tracking gap had widened to 1.7 frames lay 3.8 frames late, just inside 2 sd
+#: of its difference from the scene's).
+SCENE_TIMING_FAR = 0.1
 #: A stone's flight that no other source checks gets this floor of sd (frames; with the
 #: equations beside it, ``TrackEndRelease.floor_frames``): an adaptive template's drift
 #: put it 2.7 frames late with a stated half frame.
@@ -185,12 +190,14 @@ def scene_covering_sd(time: float, sd: float, scene_time: float, span: float, fr
     """The sd (s) of an event at ``time`` (sd ``sd``, s) that disagrees with the scene's own
     time of it (``scene_time``, s, the detected trigger plus the simulated ``span``, s):
     more than ``agreement_sd`` sd of their difference apart (the scene's sd from
-    :func:`scene_reach`), :func:`covering_sd` of the gap reaching past the scene's time by
-    :func:`scene_reach` (the rival is itself uncertain); None where they agree."""
+    :func:`scene_reach`) or more than :data:`SCENE_TIMING_FAR` of the span,
+    :func:`covering_sd` of the gap reaching past the scene's time by :func:`scene_reach`
+    (the rival is itself uncertain); None where they agree."""
     scene_sd, reach = scene_reach(span, frame, trigger_sd)
     own = sd if np.isfinite(sd) else 0.0
     gap = abs(scene_time - time)
-    if gap <= agreement_sd * math.hypot(own, scene_sd):
+    far = math.isfinite(span) and gap > SCENE_TIMING_FAR * span
+    if gap <= agreement_sd * math.hypot(own, scene_sd) and not far:
         return None
     return covering_sd(own, gap + reach)
 
