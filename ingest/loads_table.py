@@ -131,8 +131,8 @@ class ShotEvents:
 def _lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
               given: Mapping[str, float | None], trigger: float | None,
               release: float | None, options: ReconstructOptions,
-              stone_lift: StoneLiftOff | None, tracked: np.ndarray | None
-              ) -> tuple[float | None, float, str, tuple, tuple]:
+              stone_lift: StoneLiftOff | None, tracked: np.ndarray | None,
+              trigger_sd: float = 0.0) -> tuple[float | None, float, str, tuple, tuple]:
     """Lift-off (s or None), its sd (s), source, notes and warnings: given, or the normal
     force's zero, its sd widened where θ or ψ is not tracked near it
     (:func:`~.events.lift_off.gap_widened_sd`), weighed with the stone's departure from
@@ -160,7 +160,9 @@ def _lift_off(state: pd.DataFrame, cov: dict[str, np.ndarray], scene: Scene,
     if trigger is not None:
         span = simulate(scene, t_eval=[0.0]).attrs["events"].get("lift_off")
         if span is not None:
-            sd, said = timing_widened_sd(lift, sd, trigger + span, span)
+            frame = float(np.median(np.diff(state["t"].to_numpy(dtype=float))))
+            sd, said = timing_widened_sd(lift, sd, trigger + span, span, frame,
+                                         float(np.nan_to_num(trigger_sd)))
             notes += [said] if said else []
             warned += [said] if said else []
     return lift, sd, source, tuple(notes), tuple(warned)
@@ -191,7 +193,8 @@ def shot_events(est: pd.DataFrame, state: pd.DataFrame, cov: dict[str, np.ndarra
           "release": 0.0 if "release" in given or release is None
           else (sd_event if release_sd is None else release_sd)}
     lift, sd["lift_off"], sources["lift_off"], notes, warned = _lift_off(
-        state, cov, scene, given, trigger, release, options, stone_lift, tracked)
+        state, cov, scene, given, trigger, release, options, stone_lift, tracked,
+        sd["trigger"])
     return ShotEvents({"trigger": trigger, "lift_off": lift, "release": release}, sd, sources,
                       notes, warned)
 

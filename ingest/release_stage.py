@@ -144,13 +144,15 @@ def with_continued_sling(est: pd.DataFrame, scene: Scene, last: int,
     return with_angle_rows(est, "phi", cont.rows, (cont.phi, cont.phi_d, cont.phi_dd), cont.cov)
 
 
-def scene_timing(scene: Scene, trigger: float | None) -> SceneTiming:
-    """The scene's own release in the log's time: ``trigger`` (s) plus the simulated time
-    from trigger to release (:class:`~.events.release_sources.SceneTiming`)."""
+def scene_timing(scene: Scene, trigger: float | None, trigger_sd: float = 0.0
+                 ) -> SceneTiming:
+    """The scene's own release in the log's time: ``trigger`` (s, its sd ``trigger_sd``)
+    plus the simulated time from trigger to release
+    (:class:`~.events.release_sources.SceneTiming`)."""
     if trigger is None:
         return SceneTiming(None)
     span = float(simulate(scene, t_eval=[0.0]).attrs["events"]["release"])
-    return SceneTiming(trigger + span, span)
+    return SceneTiming(trigger + span, span, float(np.nan_to_num(trigger_sd)))
 
 
 def _warned(log: pd.DataFrame, *sentences: str | None) -> None:
@@ -181,7 +183,8 @@ def release_by_the_equations(log: pd.DataFrame, angles_log: np.ndarray, est: pd.
     frame = float(np.median(np.diff(t)))
     choice = release_without_track_end(
         fitted, found.get("release"), options.event_sd_frames * frame, frame,
-        scene_timing(scene, found.get("trigger")),
+        scene_timing(scene, found.get("trigger"),
+                     smoothing_of(est).event_sd.get("trigger", 0.0)),
         TrackEndRelease(max_misfit=settings.max_misfit))
     doubt = scene_doubt(fitted, settings)
     _warned(log, choice.warning, doubt)
@@ -232,7 +235,8 @@ def lost_or_released(log: pd.DataFrame, angles_log: np.ndarray, est: pd.DataFram
                    float(np.median(np.diff(t))), stone_held=_stone_held(info, float(t[last]),
                                                                         float(t[last + 1])))
     choice = release_at_track_end(end, stone, fitted,
-                                  scene_timing(scene, smoothing_of(est).events.get("trigger")),
+                                  scene_timing(scene, smoothing_of(est).events.get("trigger"),
+                                               smoothing_of(est).event_sd.get("trigger", 0.0)),
                                   TrackEndRelease(max_misfit=settings.max_misfit))
     if choice.kind == "lost":
         choice = _lost_spread(choice, angles_log, est, scene, settings, last, end.frame)

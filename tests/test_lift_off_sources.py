@@ -100,4 +100,5 @@ def test_an_untracked_counterweight_near_lift_off_widens_its_sd():
     assert sd > 0.26 / np.sqrt(12) and "not tracked" in said
     sd, said = timing_widened_sd(0.5 + 0.041, 0.001, 0.5, 0.19)
     assert 2 * sd >= 0.041 and "scene's own" in said
-    assert timing_widened_sd(0.5 + 0.01, 0.001, 0.5, 0.19) == (0.001, None)
+    # within 2 sd of the scene's (1 % of the span, 1.9 ms, and its own 1 ms) it stands
+    assert timing_widened_sd(0.5 + 0.003, 0.001, 0.5, 0.19) == (0.001, None)

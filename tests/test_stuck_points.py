@@ -143,3 +143,27 @@ def test_a_wrong_match_on_a_tilted_camera_is_still_found(shot):
     assert {o.point for o in found} == {"spigot"}
     hit = set().union(*(range(o.first, o.last + 1) for o in found))
     assert set(frames.tolist()) <= hit and len(hit) <= len(frames) + 2
+
+
+def test_a_point_left_out_everywhere_is_named_in_the_refusal(tmp_path):
+    """The stress grid's refusals (issue 26): an adaptive template slid off the paper
+    engine's hinge, every position was left out, and the refusal named only ψ's column,
+    which holds values. Here the counterweight is lost at rest (low likelihood) and then
+    stuck where it was for the whole swing: the refusal names the point to retrack."""
+    from trebuchet.core.errors import TrebuchetInputError
+
+    frames, table, t, _ = tracked("stuck", 240.0)
+    cw = table["counterweight"]
+    moving = np.flatnonzero(np.abs(np.diff(cw[:, 0])) > 0.5)
+    start = int(moving[0]) - 2
+    cw[:start, 2] = 0.1  # unsure at rest: gaps
+    cw[start:, :2] = cw[start, :2]  # then held where it was
+    cw[start:, 2] = 0.99
+    path = tmp_path / "held.csv"
+    single_frame(table, len(frames)).to_csv(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(TrebuchetInputError, match="no value at all") as err:
+            read_log(path, fps=240.0, points=POINTS)
+    assert "'weight'" in str(err.value) and "retrack" in str(err.value)
+    assert "\n" not in str(err.value)

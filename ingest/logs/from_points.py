@@ -161,3 +161,22 @@ def _cut_flight_from_sling(source: LogSource, positions: dict[str, tuple[np.ndar
             "on are left out (the release lies before it)")
 
 
+
+
+def left_out_reason(log: ParsedLog, angle: str) -> str:
+    """Why ``angle`` of a point log has no value at all where its points are in the file:
+    the points whose positions :func:`from_points` left out (stuck on an occluder, off the
+    engine's geometry) named, as a clause to append to the refusal ("" where none was).
+    On the stress grid an adaptive template slid 5–12 px off the paper engine's hinge; its
+    positions were all left out and the refusal named only ψ's column, which holds values."""
+    names = log.point_names or {}
+    ends = log.labels.get(angle, "").split(" -> ")
+    dropped = [role for role, name in names.items() if name in ends and any(
+        s.startswith(f"{role} ('") and ("stands still" in s or "off the engine's geometry" in s)
+        for s in log.repairs)]
+    if not dropped:
+        return ""
+    which = " and ".join(f"'{names[r]}'" for r in dropped)
+    return (f": the file's positions of {which} were left out where the tracker stood still "
+            "while the engine moved or left the engine's geometry (a tracker's wrong match), "
+            f"which leaves no row with {angle}; retrack {which}")

@@ -46,7 +46,11 @@ from trebuchet.ingest.geometry.user_calibration import (
     UserCalibration,
     read_calibration,
 )
-from trebuchet.ingest.logs.from_points import PIXEL_FORMATS, from_points  # noqa: F401 (PIXEL_FORMATS: calibrated_angles reads it here)
+from trebuchet.ingest.logs.from_points import (  # noqa: F401 (PIXEL_FORMATS: calibrated_angles reads it here)
+    PIXEL_FORMATS,
+    from_points,
+    left_out_reason,
+)
 from trebuchet.ingest.logs.outliers import drop_single_frame_outliers
 from trebuchet.ingest.logs.repairs import (
     drop_repeated_frames,
@@ -212,8 +216,8 @@ def _read(path: str | Path, fps: float | None, columns: Mapping[str, str] | None
         values = log.angles[angle]
         if np.isnan(values).all():
             raise TrebuchetInputError.at(
-                f"column '{log.labels[angle]}'", f"no value at all (for {angle})"
-            )
+                f"column '{log.labels[angle]}'",
+                f"no value at all (for {angle}){left_out_reason(log, angle)}")
         largest = float(np.nanmax(np.abs(values)))
         if largest > MAX_ANGLE:
             label = log.labels[angle]

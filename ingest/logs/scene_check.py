@@ -225,26 +225,41 @@ def _departure(t: np.ndarray, theta: np.ndarray, rest: float) -> float:
 def _stretch(t: np.ndarray, theta: np.ndarray, rest: float, rate: np.ndarray | None = None
              ) -> tuple[float, float, bool]:
     """(sweep in deg from ``rest`` to the fastest point, time in s from the departure to it,
-    whether the fastest point is the last frame); dθ/dt from a local fit to ``theta``
+    whether the fastest point is the log's end); dθ/dt from a local fit to ``theta``
     (after a running median over :data:`OUTLIER_FRAMES` frames, against a mislocated
-    point) unless ``rate`` gives it."""
+    point) unless ``rate`` gives it. A fastest point within the two filters' half-widths
+    of the last frame cannot be told from the end (a stress-grid log whose spigot was lost
+    mid-swing at 60 fps peaked 4 frames before its end, lagging the truth by 6°: its
+    sweep was compared with the whole swing's and the scene refused)."""
+    edge = 1
     if rate is None:
         theta = median_filter(theta, size=OUTLIER_FRAMES, mode="nearest")
         rate = _rate(theta, t)
+        edge = OUTLIER_FRAMES // 2 + _rate_width(t, theta.size) // 2
     departure = _departure(t, theta, rest)
     fastest = int(np.argmax(np.where(t >= departure, np.abs(rate), -np.inf)))
     return (math.degrees(abs(theta[fastest] - rest)), float(t[fastest] - departure),
-            fastest >= t.size - 2)
+            fastest >= t.size - 1 - edge)
 
 
 def _rate(theta: np.ndarray, t: np.ndarray) -> np.ndarray:
     """dθ/dt from a Savitzky-Golay fit (quadratic over ~:data:`RATE_WINDOW` s, at most a
     fifth of the log): the beam's speed peaks over a tenth of a second, the noise's over a
     frame."""
-    steps = np.diff(t)
-    period = float(np.median(steps[steps > 0])) if (steps > 0).any() else 1.0
-    width = min(int(round(RATE_WINDOW / period)), theta.size // 5)
-    width = max(5, width) | 1
+    width = _rate_width(t, theta.size)
     if width > theta.size:
         return np.gradient(theta, t)
-    return savgol_filter(theta, width, 2, deriv=1, delta=period)
+    return savgol_filter(theta, width, 2, deriv=1, delta=period_of(t))
+
+
+def period_of(t: np.ndarray) -> float:
+    """The frame interval (s): the median positive step of ``t`` (1 where there is none)."""
+    steps = np.diff(t)
+    return float(np.median(steps[steps > 0])) if (steps > 0).any() else 1.0
+
+
+def _rate_width(t: np.ndarray, n: int) -> int:
+    """Frames (odd, at least 5) of :func:`_rate`'s fit: ~:data:`RATE_WINDOW` s, at most a
+    fifth of the ``n`` frames."""
+    width = min(int(round(RATE_WINDOW / period_of(t))), n // 5)
+    return max(5, width) | 1
