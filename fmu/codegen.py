@@ -61,9 +61,16 @@ _REST = ("rest_m", "rest_M", "rest_beam")
 #: couples' generalised forces (N m, solved by the C glue with the generated Newton steps).
 _LOST = ("e_P", "e_H")
 _Q = ("Q_th", "Q_ps")
-#: The pieces of ``dynamics.friction_pieces`` and Newton's start ``dynamics.friction_start``.
-PIECES = tuple(f"p{i}" for i in range(14))
+#: The pieces of ``dynamics.friction_pieces`` (Newton's steps take the first 14: the couples'
+#: factors and the loads' affine pieces; the rates all 25) and Newton's start
+#: ``dynamics.friction_start``.
+PIECES = tuple(f"p{i}" for i in range(25))
+_LOADS = PIECES[:14]
 _NEWTON = ("n_R", "n_H")
+#: The convergence of a Newton step: the magnitudes before it and the step before (N); the
+#: margins and the step (N).
+_MARGIN_IN = (*_NEWTON, "o_R", "o_H", "s_R", "s_H")
+_MARGIN_OUT = ("m_R", "m_H", "d_R", "d_H")
 
 
 @cache
@@ -194,13 +201,9 @@ def _jacobian(phase: int) -> Build:
     return build
 
 
-def _rates(phase: int, friction: bool = False) -> Build:
+def _rates(phase: int) -> Build:
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
         y = [x[n] for n in _STATE[phase]]
-        if friction:
-            y += [x[n] for n in _LOST]
-            d = dyn.state_derivative_under(phase, y, e, g, H, x["Q_th"], x["Q_ps"], lib)
-            return d[:len(y)]
         if phase == 1:
             return dyn.state_rates_phase1(y, e, g, H, lib)
         if phase == 2:
@@ -265,7 +268,25 @@ def _pieces(phase: int) -> Build:
 
 
 def _newton(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
-    return dyn.friction_newton_step(tuple(x[n] for n in PIECES), x["n_R"], x["n_H"], lib)
+    return dyn.friction_newton_step(tuple(x[n] for n in _LOADS), x["n_R"], x["n_H"], lib)
+
+
+def _newton_margins(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+    """The margins of a step of ``dynamics.friction_solve`` from ``o`` to ``n``
+    (``dynamics.friction_newton_margin``) and the step."""
+    d_R, d_H = x["n_R"] - x["o_R"], x["n_H"] - x["o_H"]
+    return (dyn.friction_newton_margin(d_R, x["s_R"], x["n_R"]),
+            dyn.friction_newton_margin(d_H, x["s_H"], x["n_H"]), d_R, d_H)
+
+
+def _friction_rates(phase: int) -> Build:
+    """``dynamics.friction_derivative`` of ``phase`` from the state, the pieces and the solved
+    load magnitudes."""
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+        y = [x[n] for n in (*_STATE[phase], *_LOST)]
+        p = tuple(x[n] for n in PIECES)
+        return dyn.friction_derivative(phase, y, p, x["n_R"], x["n_H"], e, g)[:len(y)]
+    return build
 
 
 def _couples(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
@@ -311,7 +332,10 @@ def _all_formulas() -> tuple[Formula, ...]:
         out += _friction_formulas(fixed, angles_loads)
     out += [
         Formula("friction_newton", "dynamics.friction_newton_step: one Newton step on the "
-                "bearings' load magnitudes (N)", (*PIECES, *_NEWTON), _NEWTON, _newton),
+                "bearings' load magnitudes (N)", (*_LOADS, *_NEWTON), _NEWTON, _newton),
+        Formula("friction_newton_margins", "dynamics.friction_newton_margin of both loads "
+                "(<= 0: converged to round-off) and the step (N)", _MARGIN_IN, _MARGIN_OUT,
+                _newton_margins),
         Formula("friction_couples", "dynamics.friction_result: Q_th, Q_ps (N m)",
                 ("p0", "p1", *_NEWTON), _Q, _couples),
         Formula("sling_upright", "phase_events.sling_upright_margin", _STATE[1], ("margin",),
@@ -345,9 +369,9 @@ def _all_formulas() -> tuple[Formula, ...]:
 
 def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formula]:
     """The formulas of an engine with friction in its bearings: the couples' pieces, and the
-    rates, outputs and lift-off under the couples' generalised forces (the C glue solves
-    those with :data:`FRICTION_NEWTON_STEPS` generated Newton steps, as
-    :func:`dynamics.friction_forces` does)."""
+    state's rates from the pieces and the solved loads, the outputs and lift-off under the
+    couples' generalised forces (the C glue solves those with the generated Newton steps, as
+    :func:`dynamics.friction_solve` does)."""
     cw = "fixed" if fixed else "hinged"
     out = []
     for phase in (1, 2, 3):
@@ -355,10 +379,10 @@ def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formu
                            "dynamics.friction_pieces and friction_start", _STATE[phase],
                            (*PIECES, *_NEWTON), _pieces(phase), fixed, friction=True))
         out.append(Formula(f"rates{phase}_{cw}_friction", f"phase {phase} state derivative "
-                           "with friction (dynamics.state_derivative_under)",
-                           (*_STATE[phase], *_LOST, *_Q),
+                           "with friction (dynamics.friction_derivative)",
+                           (*_STATE[phase], *_LOST, *PIECES, *_NEWTON),
                            tuple(f"d_{n}" for n in (*_STATE[phase], *_LOST)),
-                           _rates(phase, True), fixed, friction=True))
+                           _friction_rates(phase), fixed, friction=True))
         out.append(Formula(f"outputs{phase}_{cw}_friction", f"phase {phase} angles, rates, "
                            "accelerations and loads with friction",
                            (*_STATE[phase], *_LOST, *_Q, *_REST), angles_loads,
@@ -487,6 +511,7 @@ def generate_header() -> str:
     lines += [f"#define TREB_NQ {len(PARAMETER_NAMES)}",
               f"#define TREB_FRICTION_NEWTON_STEPS {dyn.FRICTION_NEWTON_STEPS}",
               f"#define TREB_N_PIECES {len(PIECES)}",
+              f"#define TREB_N_LOADS {len(_LOADS)}",
               f"#define TREB_N_OUTPUTS {len(ANGLE_NAMES) + len(LOAD_OUTPUTS)}", ""]
     lines += [f"#define TREB_OUT_{n} {i}" for i, n in enumerate((*ANGLE_NAMES, *LOAD_OUTPUTS))]
     lines += [""]
