@@ -62,8 +62,7 @@ _REST = ("rest_m", "rest_M", "rest_beam")
 _LOST = ("e_P", "e_H")
 _Q = ("Q_th", "Q_ps")
 #: The pieces of ``dynamics.friction_pieces`` (Newton's steps take the first 14: the couples'
-#: factors and the loads' affine pieces; the rates all 25) and Newton's start
-#: ``dynamics.friction_start``.
+#: factors and the loads' affine pieces; the rates all 25).
 PIECES = tuple(f"p{i}" for i in range(25))
 _LOADS = PIECES[:14]
 _NEWTON = ("n_R", "n_H")
@@ -71,6 +70,7 @@ _NEWTON = ("n_R", "n_H")
 #: margins and the step (N).
 _MARGIN_IN = (*_NEWTON, "o_R", "o_H", "s_R", "s_H")
 _MARGIN_OUT = ("m_R", "m_H", "d_R", "d_H")
+_FIRST_STEPS = (*_NEWTON, "d_R", "d_H", "m_R", "m_H")
 
 
 @cache
@@ -175,6 +175,11 @@ def _outputs(phase: int, friction: bool = False,
     return build
 
 
+#: How closely the generated first Newton steps match the Python's: the second step (N) is a
+#: difference of magnitudes 1e4 to 1e5 times its size (sympy writes it as a quotient, the
+#: Python subtracts), so its rounding is that of the magnitudes, ~1e-16 of 1e6 N.
+FIRST_STEPS_TOLERANCE = 1e-9
+
 #: Relative step of the central differences that check the generated Jacobians.
 FD_STEP = 1e-5
 
@@ -256,15 +261,18 @@ def _projectile(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any
 
 
 def _pieces(phase: int) -> Build:
-    """:func:`dynamics.friction_pieces` of ``phase`` and Newton's start
-    (:func:`dynamics.friction_start`)."""
+    """:func:`dynamics.friction_pieces` of ``phase``."""
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
         y = [x[n] for n in _STATE[phase]]
         th, ps, ph, th_d, ps_d, ph_d = (y[0], y[1], y[2], y[3], y[4], y[5]) if phase == 2 else (
             y[0], y[1], 0.0, y[2], y[3], 0.0)
         p = dyn.friction_pieces(phase, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
-        return [*p[:len(PIECES)], *dyn.friction_start(p, lib)]
+        return list(p[:len(PIECES)])
     return build
+
+
+def _first_steps(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+    return dyn.friction_first_steps(tuple(x[n] for n in _LOADS), lib)
 
 
 def _newton(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
@@ -331,11 +339,16 @@ def _all_formulas() -> tuple[Formula, ...]:
                            _STATE[1], ("margin",), _event(pev.LIFT_OFF, 1), fixed))
         out += _friction_formulas(fixed, angles_loads)
     out += [
+        Formula("friction_first_steps", "dynamics.friction_first_steps: Newton's first two "
+                "steps on the bearings' load magnitudes (N), the second step and its margins",
+                _LOADS, _FIRST_STEPS, _first_steps, friction=True,
+                tolerance=FIRST_STEPS_TOLERANCE),
         Formula("friction_newton", "dynamics.friction_newton_step: one Newton step on the "
-                "bearings' load magnitudes (N)", (*_LOADS, *_NEWTON), _NEWTON, _newton),
+                "bearings' load magnitudes (N)", (*_LOADS, *_NEWTON), _NEWTON, _newton,
+                friction=True),
         Formula("friction_newton_margins", "dynamics.friction_newton_margin of both loads "
                 "(<= 0: converged to round-off) and the step (N)", _MARGIN_IN, _MARGIN_OUT,
-                _newton_margins),
+                _newton_margins, friction=True),
         Formula("friction_couples", "dynamics.friction_result: Q_th, Q_ps (N m)",
                 ("p0", "p1", *_NEWTON), _Q, _couples),
         Formula("sling_upright", "phase_events.sling_upright_margin", _STATE[1], ("margin",),
@@ -376,8 +389,8 @@ def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formu
     out = []
     for phase in (1, 2, 3):
         out.append(Formula(f"friction_pieces{phase}_{cw}", f"phase {phase}: "
-                           "dynamics.friction_pieces and friction_start", _STATE[phase],
-                           (*PIECES, *_NEWTON), _pieces(phase), fixed, friction=True))
+                           "dynamics.friction_pieces", _STATE[phase], PIECES, _pieces(phase),
+                           fixed, friction=True))
         out.append(Formula(f"rates{phase}_{cw}_friction", f"phase {phase} state derivative "
                            "with friction (dynamics.friction_derivative)",
                            (*_STATE[phase], *_LOST, *PIECES, *_NEWTON),
@@ -464,7 +477,19 @@ def _engine_formulas() -> tuple[Formula, ...]:
 ENGINE_FORMULAS: tuple[Formula, ...] = _engine_formulas()
 
 
-def _printer():  # noqa: ANN202 - sympy's printer class
+#: Powers that the friction's formulas print with products and ``sqrt`` instead of ``pow``
+#: (a call into libm that gcc does not inline but for the square): exponent, C of ``b``.
+_POWERS = {3: "({b}*{b}*{b})", 4: "({b}*{b}*{b}*{b})", 6: "({b}*{b}*{b}*{b}*{b}*{b})",
+           -6: "(1.0/({b}*{b}*{b}*{b}*{b}*{b}))", -2: "(1.0/({b}*{b}))",
+           -3: "(1.0/({b}*{b}*{b}))", -4: "(1.0/({b}*{b}*{b}*{b}))", 0.5: "sqrt({b})",
+           -0.5: "(1.0/sqrt({b}))", 1.5: "({b}*sqrt({b}))", -1.5: "(1.0/({b}*sqrt({b})))",
+           2.5: "({b}*{b}*sqrt({b}))"}
+
+
+def _printer(products: bool = False):  # noqa: ANN202 - sympy's printer class
+    """sympy's C99 printer; ``products``: the :data:`_POWERS` without ``pow`` (the same
+    numbers to rounding: used for the friction's formulas only, so that a frictionless
+    engine keeps its numbers bit for bit)."""
     from sympy.printing.c import C99CodePrinter
 
     class Printer(C99CodePrinter):
@@ -472,6 +497,12 @@ def _printer():  # noqa: ANN202 - sympy's printer class
 
         def _print_Float(self, expr: Any) -> str:
             return repr(float(expr))
+
+        def _print_Pow(self, expr: Any) -> str:
+            e = expr.exp
+            if products and e.is_Rational and float(e) in _POWERS:
+                return _POWERS[float(e)].format(b=f"({self._print(expr.base)})")
+            return super()._print_Pow(expr)
 
     return Printer()
 
@@ -489,7 +520,7 @@ def _function_c(f: Formula) -> str:
     if len(exprs) != len(f.outputs):
         raise ValueError(f"{f.name}: {len(exprs)} results for {len(f.outputs)} outputs")
     temps, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("t"))
-    pr = _printer()
+    pr = _printer(products=f.friction)
     used = set().union(*(ex.free_symbols for ex in [*reduced, *(v for _, v in temps)]))
     lines = [f"/* {f.doc}. x: {' '.join(f.inputs) or '-'}; out: {' '.join(f.outputs)} */",
              f"void treb_{f.name}(const double *q, const double *x, double *out)", "{"]
@@ -512,6 +543,7 @@ def generate_header() -> str:
               f"#define TREB_FRICTION_NEWTON_STEPS {dyn.FRICTION_NEWTON_STEPS}",
               f"#define TREB_N_PIECES {len(PIECES)}",
               f"#define TREB_N_LOADS {len(_LOADS)}",
+              f"#define TREB_N_FIRST_STEPS {len(_FIRST_STEPS)}",
               f"#define TREB_N_OUTPUTS {len(ANGLE_NAMES) + len(LOAD_OUTPUTS)}", ""]
     lines += [f"#define TREB_OUT_{n} {i}" for i, n in enumerate((*ANGLE_NAMES, *LOAD_OUTPUTS))]
     lines += [""]

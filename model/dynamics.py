@@ -35,8 +35,15 @@ import numpy as np
 
 from trebuchet.model.forces import joint_forces_xy
 from trebuchet.model.friction import (
+    FRICTION_NEWTON_EPS,
+    FRICTION_NEWTON_STEPS,
     friction_couples,
+    friction_first_steps,
     friction_generalised_forces,
+    friction_newton_margin,
+    friction_newton_step,
+    friction_solve,
+    friction_start,
     has_friction,
     loss_powers,
 )
@@ -58,6 +65,7 @@ __all__ = [
     "friction_newton_step",
     "friction_newton_margin",
     "friction_solve",
+    "friction_first_steps",
     "motion_of_pieces",
     "friction_derivative",
     "friction_start",
@@ -248,14 +256,6 @@ def couple_response(kind: int, th: Any, ps: Any, ph: Any, e: Engine, H: float,
     return th_t, ps_t, follow * th_t, th_p, ps_p, follow * th_p
 
 
-#: The most Newton steps :func:`friction_solve` takes (it stops before where the steps have
-#: converged to round-off: two for the sample engines; the third is below round-off for couples
-#: of up to a tenth of what the bearings' loads could turn; tests/test_friction.py measures it).
-FRICTION_NEWTON_STEPS = 3
-#: The relative round-off Newton's steps converge to (2⁻⁵², float64's epsilon).
-FRICTION_NEWTON_EPS = 2.0 ** -52
-
-
 def friction_pieces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
                     e: Engine, g: float, H: float, lib: ModuleType = np) -> tuple:
     """What the couples of the bearings' friction depend on, in phase ``kind`` at the given
@@ -282,58 +282,6 @@ def friction_pieces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, 
             *motion, *r)
 
 
-def friction_newton_step(p: tuple, n_R: Any, n_H: Any, lib: ModuleType = np
-                         ) -> tuple[Any, Any]:
-    """One Newton step on ``n = (|F_R(n)|, |F_H(n)|)`` (N) with the pieces ``p`` of
-    :func:`friction_pieces`: residual ``f = (|F_R(n)| − n_R, |F_H(n)| − n_H)``, Jacobian
-    ``∂|F|/∂n = F̂·∂F/∂n − I``. Each row of the system is multiplied by its ``|F|`` (the same
-    step, one division instead of three: ``|F| f = F·F − |F| n``, ``|F| ∂|F|/∂n = F·∂F/∂n −
-    |F| I``)."""
-    Rx, Ry = p[2] + p[6] * n_R + p[8] * n_H, p[3] + p[7] * n_R + p[9] * n_H
-    Hx, Hy = p[4] + p[10] * n_R + p[12] * n_H, p[5] + p[11] * n_R + p[13] * n_H
-    RR, HH = Rx * Rx + Ry * Ry, Hx * Hx + Hy * Hy
-    abs_R, abs_H = lib.sqrt(RR), lib.sqrt(HH)
-    f_R, f_H = RR - abs_R * n_R, HH - abs_H * n_H
-    J11 = Rx * p[6] + Ry * p[7] - abs_R
-    J12 = Rx * p[8] + Ry * p[9]
-    J21 = Hx * p[10] + Hy * p[11]
-    J22 = Hx * p[12] + Hy * p[13] - abs_H
-    det = J11 * J22 - J12 * J21
-    return n_R - (f_R * J22 - f_H * J12) / det, n_H - (J11 * f_H - J21 * f_R) / det
-
-
-def friction_newton_margin(step: Any, previous: Any, n: Any) -> Any:
-    """≤ 0 where a Newton step ``step`` (N) on a load magnitude ``n`` (N) has converged to
-    round-off: the step itself below ``ε n`` (``ε = 2⁻⁵²``), or the next one Newton's quadratic
-    convergence predicts, ``step³ / previous²`` (``previous`` the step before, N; 0 for the
-    first), below it: ``|step|³ − ε |n| (previous² + step²)`` (no division; a step of 0 or
-    NaN answers as it should)."""
-    s2 = step * step
-    return s2 * abs(step) - FRICTION_NEWTON_EPS * abs(n) * (previous * previous + s2)
-
-
-def friction_solve(p: tuple, lib: ModuleType = np) -> tuple[Any, Any]:
-    """The load magnitudes ``n_R = |F_R|``, ``n_H = |F_H|`` (N) under the couples they cause,
-    from the pieces ``p`` of :func:`friction_pieces`: Newton's steps
-    (:func:`friction_newton_step`) from the frictionless magnitudes
-    (:func:`friction_start`), until :func:`friction_newton_margin` says both have converged
-    to round-off, at most :data:`FRICTION_NEWTON_STEPS`. On arrays the steps go on until every
-    element has converged. The C glue (``fmu/c/treb_shot.c``) runs the same steps on the
-    generated formulas."""
-    n_R, n_H = friction_start(p, lib)
-    s_R, s_H = 0.0 * n_R, 0.0 * n_H
-    for _ in range(FRICTION_NEWTON_STEPS):
-        m_R, m_H = friction_newton_step(p, n_R, n_H, lib)
-        d_R, d_H = m_R - n_R, m_H - n_H
-        n_R, n_H = m_R, m_H
-        done = (friction_newton_margin(d_R, s_R, n_R) <= 0.0) & (
-            friction_newton_margin(d_H, s_H, n_H) <= 0.0)
-        if np.all(np.asarray(done)):
-            break
-        s_R, s_H = d_R, d_H
-    return n_R, n_H
-
-
 def friction_forces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
                     e: Engine, g: float, H: float, lib: ModuleType = np
                     ) -> tuple[Any, Any, Any, Any]:
@@ -348,12 +296,6 @@ def friction_forces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, 
     p = friction_pieces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
     n_R, n_H = friction_solve(p, lib)
     return friction_result(p, n_R, n_H)
-
-
-def friction_start(p: tuple, lib: ModuleType = np) -> tuple[Any, Any]:
-    """Newton's start: the frictionless load magnitudes ``|F_R₀|``, ``|F_H₀|`` (N) of the
-    pieces ``p`` of :func:`friction_pieces`."""
-    return lib.sqrt(p[2] * p[2] + p[3] * p[3]), lib.sqrt(p[4] * p[4] + p[5] * p[5])
 
 
 def friction_result(p: tuple, n_R: Any, n_H: Any) -> tuple[Any, Any, Any, Any]:

@@ -44,10 +44,8 @@ def run_python(code: str, *args: str, timeout: float = 120) -> subprocess.Comple
                           capture_output=True, text=True, timeout=timeout, cwd=ROOT)
 
 
-def assert_outputs_equal(result, ref: pd.DataFrame, label: str, rel: float = REL,
-                         accuracy: pd.DataFrame | None = None) -> None:
-    """Same phase at every time; every output within ``rel`` of its peak magnitude, or (with
-    ``accuracy``, the reference's own error) within twice the reference's largest error."""
+def assert_outputs_equal(result, ref: pd.DataFrame, label: str, rel: float = REL) -> None:
+    """Same phase at every time; every output within ``rel`` of its peak magnitude."""
     np.testing.assert_allclose(result["time"], ref["time"], rtol=0, atol=1e-12)
     np.testing.assert_array_equal(np.asarray(result["phase"]), ref["phase"].to_numpy(),
                                   err_msg=label)
@@ -56,11 +54,7 @@ def assert_outputs_equal(result, ref: pd.DataFrame, label: str, rel: float = REL
         scale = np.max(np.abs(want))
         assert np.all(np.isfinite(got)), f"{label}: {name} not finite"
         err = np.max(np.abs(got - want))
-        bound = rel * scale
-        if accuracy is not None:
-            bound = max(bound, 2.0 * float(np.max(np.abs(accuracy[name].to_numpy(dtype=float)
-                                                          - want))))
-        assert err <= bound + 1e-300, f"{label}: {name} off by {err:g} (peak {scale:g})"
+        assert err <= rel * scale + 1e-300, f"{label}: {name} off by {err:g} (peak {scale:g})"
 
 
 #: data_samples/horsdal_friction.toml's bearings.
@@ -294,22 +288,22 @@ def test_cosimulation_of_variants_equals_in_process(fmu_path, changes):
     values = {**start_values(), **changes}
     result = simulate_fmu(str(fmu_path), stop_time=1.5, output_interval=1e-3,
                           fmi_type="CoSimulation", start_values=changes)
-    ref = reference(result["time"], values, t_stop=1.5)
     dry = values["start.projectile"] == 3
-    accuracy = None
+    rel, rtol = REL, "default"
     if dry and "friction.pivot_mu" in changes:
-        # the beam swings through standstills for 1.5 s: the friction torque turns over 1e-3
-        # rad/s there (tanh), and the C's and numba's rounding move it by as much as the
-        # solver's own error (1.2e-8 of its peak against the shot at rtol 1e-13)
-        accuracy = reference(result["time"], values, t_stop=1.5, rtol=1e-13)
+        # the beam swings for 1.5 s and the hinge sticks (|psi_d - theta_d| ~ 1e-5 rad/s, in
+        # the couples' tanh over 1e-3 rad/s): the friction torque there is 2e6 N m per rad/s of
+        # the integrated rate, and the shots at rtol 1e-10 hold it to the solver's accuracy
+        # only (numba's 1.2e-8 of its peak, the C's 4e-8, against the shot at rtol 1e-13):
+        # the FMU against the Python's shot at 1e-13, to 1e-7 of each output's peak
+        rel, rtol = 1e-7, 1e-13
+    ref = reference(result["time"], values, t_stop=1.5, rtol=rtol)
     if dry:  # no projectile: its position, velocity and energy are not defined
         for name in ("x_m", "y_m", "vx_m", "vy_m"):
             assert np.isnan(result[name]).all() and ref[name].isna().all()
             result[name] = 0.0
             ref[name] = 0.0
-            if accuracy is not None:
-                accuracy[name] = 0.0
-    assert_outputs_equal(result, ref, str(changes), accuracy=accuracy)
+    assert_outputs_equal(result, ref, str(changes), rel=rel)
 
 
 @pytest.mark.parametrize("changes", [{}, FRICTION], ids=["frictionless", "friction"])

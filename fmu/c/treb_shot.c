@@ -36,20 +36,23 @@ int treb_state_size(const TrebScene *sc, int phase)
 }
 
 /* The pieces of the bearings' friction at the state y of phase into p (TREB_N_PIECES) and the
- * load magnitudes |F_R|, |F_H| (N) the couples follow into n: the generated pieces, then the
- * generated Newton steps from the frictionless magnitudes until both margins say the steps
- * have converged to round-off, at most TREB_FRICTION_NEWTON_STEPS (model/dynamics.py,
- * friction_solve, takes the same steps). */
+ * load magnitudes |F_R|, |F_H| (N) the couples follow into n: the generated pieces, Newton's
+ * first two steps, then more generated steps until both margins say the steps have converged
+ * to round-off, at most TREB_FRICTION_NEWTON_STEPS in all (model/dynamics.py, friction_solve,
+ * takes the same steps). */
 static void friction_loads(const double *q, int phase, int fixed, const double *y, double *p,
                            double *n)
 {
-    double x[TREB_N_LOADS + 2], m[6], out[4];  /* m: n, the n before, the step before */
+    double x[TREB_N_LOADS + 2], m[6], out[TREB_N_FIRST_STEPS];  /* m: n, n before, step before */
     PIECES[fixed != 0][phase - 1](q, y, p);
+    treb_friction_first_steps(q, p, out);
+    n[0] = out[0];
+    n[1] = out[1];
+    if (out[4] <= 0.0 && out[5] <= 0.0) return;
     memcpy(x, p, TREB_N_LOADS * sizeof(double));
-    n[0] = p[TREB_N_PIECES];
-    n[1] = p[TREB_N_PIECES + 1];
-    m[4] = m[5] = 0.0;
-    for (int i = 0; i < TREB_FRICTION_NEWTON_STEPS; i++) {
+    m[4] = out[2];
+    m[5] = out[3];
+    for (int i = 2; i < TREB_FRICTION_NEWTON_STEPS; i++) {
         m[2] = x[TREB_N_LOADS] = n[0];
         m[3] = x[TREB_N_LOADS + 1] = n[1];
         treb_friction_newton(q, x, n);
@@ -66,7 +69,7 @@ static void friction_loads(const double *q, int phase, int fixed, const double *
  * phase (model/dynamics.py, friction_forces). */
 void treb_friction_solve(const double *q, int phase, int fixed, const double *y, double *Q)
 {
-    double p[TREB_N_PIECES + 2], n[2];
+    double p[TREB_N_PIECES], n[2];
     friction_loads(q, phase, fixed, y, p, n);
     double c[4] = {p[0], p[1], n[0], n[1]};
     treb_friction_couples(q, c, Q);
