@@ -148,7 +148,7 @@ def friction_solve(p: tuple, lib: ModuleType = np) -> tuple[Any, Any]:
     same steps: the first two generated with the pieces, the others one by one."""
     n_R, n_H, d_R, d_H, m_R, m_H = friction_first_steps(p, lib)
     for _ in range(FRICTION_NEWTON_STEPS - 2):
-        if np.all(np.asarray((m_R <= 0.0) & (m_H <= 0.0))):
+        if np.all((m_R <= 0.0) & (m_H <= 0.0)):
             break
         o_R, o_H, s_R, s_H = n_R, n_H, d_R, d_H
         n_R, n_H = friction_newton_step(p, o_R, o_H, lib)
