@@ -4,9 +4,10 @@ For the paper's engine (``data_samples/horsdal_friction.toml``: μ 0.15 on a 0.1
 0.06 m pin) and the small fast engine (``data_samples/small_fast.toml``: μ 0.3 on a 12.5 mm
 shaft and a 10 mm pin), each with and without its ``[friction]``:
 
-* the CPU time of one ``simulate`` at its defaults (compiled DOP853, rtol 1e-10, 1 ms
-  outputs), the least of ``REPEATS`` interleaved batches of ten (CPU time, not wall: the
-  machines this runs on are shared), and the friction run's ratio to the frictionless one
+* the CPU time of one ``simulate`` at its defaults (the generated C's DOP853, rtol 1e-10,
+  1 ms outputs) and with ``method="numba-DOP853"`` (the fallback without a C compiler), the
+  least of ``REPEATS`` interleaved batches of ten (CPU time, not wall: the machines this runs
+  on are shared), and the friction run's ratio to the frictionless one of the same path
   timed in the same run;
 * the right-hand-side evaluations and accepted steps (the couples' sign turns over 1e-3 rad/s
   of sliding rate: each standstill of a joint costs small steps);
@@ -37,29 +38,34 @@ def _without_friction(scene: Scene) -> Scene:
     return dataclasses.replace(scene, engine=dataclasses.replace(scene.engine, friction=None))
 
 
-def _timed(scenes: list[Scene]) -> list[float]:
-    """CPU seconds of one ``simulate`` of each scene: the least of the interleaved batches."""
-    times: list[list[float]] = [[] for _ in scenes]
-    for s in scenes:
-        simulate(s)
+#: The paths of ``simulate``: its default (the generated C) and the numba kernels.
+METHODS = {"C": "DOP853", "numba": "numba-DOP853"}
+
+
+def _timed(runs: list[tuple[Scene, str]]) -> list[float]:
+    """CPU seconds of one ``simulate`` of each (scene, method): the least of the interleaved
+    batches."""
+    times: list[list[float]] = [[] for _ in runs]
+    for s, method in runs:
+        simulate(s, method=method)
     for _ in range(REPEATS):
-        for k, s in enumerate(scenes):
+        for k, (s, method) in enumerate(runs):
             t0 = time.process_time()
             for _ in range(10):
-                simulate(s)
+                simulate(s, method=method)
             times[k].append((time.process_time() - t0) / 10)
     return [float(np.min(t)) for t in times]
 
 
-def _row(name: str, scene: Scene, seconds: float, base: float) -> dict:
-    run = simulate(scene)
-    traj = integrate(scene)
+def _row(name: str, path: str, scene: Scene, seconds: float, base: float) -> dict:
+    run = simulate(scene, method=METHODS[path])
+    traj = integrate(scene, method=METHODS[path])
     steps = sum(p.sol.t_steps.size for p in traj.phases)
     release = run.attrs["events"]["release"]
     at = run[run.t <= release].iloc[-1]
     pivot = float(at.get("E_loss_pivot", 0.0))
     hinge = float(at.get("E_loss_hinge", 0.0))
-    return {"engine": name, "friction": "yes" if scene.friction else "no",
+    return {"engine": name, "path": path, "friction": "yes" if scene.friction else "no",
             "simulate (ms CPU)": 1e3 * seconds, "ratio to frictionless": seconds / base,
             "evaluations": traj.nfev, "steps": steps,
             "heat by release, pivot (J)": pivot, "hinge (J)": hinge,
@@ -73,14 +79,19 @@ def run(out_dir: Path) -> pd.DataFrame:
     for name, path in SCENES.items():
         with_fr = Scene.from_toml(path)
         plain = _without_friction(with_fr)
-        t_plain, t_fr = _timed([plain, with_fr])
-        rows.append(_row(name, plain, t_plain, t_plain))
-        rows.append(_row(name, with_fr, t_fr, t_plain))
+        runs = [(s, m) for m in METHODS.values() for s in (plain, with_fr)]
+        times = dict(zip(((s.friction is not None, m) for s, m in runs), _timed(runs),
+                         strict=True))
+        for label, method in METHODS.items():
+            base = times[False, method]
+            rows.append(_row(name, label, plain, base, base))
+            rows.append(_row(name, label, with_fr, times[True, method], base))
     table = pd.DataFrame(rows)
     table.attrs["notes"] = [
         f"{REPEATS} interleaved batches of 10 runs per scene after a warm-up; the least CPU "
         "time per run; the ratio is to the same engine without its [friction], timed in the "
-        "same run.",
+        "same run, on the same path (C: simulate's default, the generated C; numba: "
+        "method='numba-DOP853').",
         "Target (issue 22): a shot with friction at most 2 x the frictionless one.",
     ]
     return table

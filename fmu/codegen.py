@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from trebuchet.fmu.c_printer import c_printer
 from trebuchet.fmu.interface import OUTPUT_NAMES
 from trebuchet.model import dynamics as dyn
 from trebuchet.model import flight as flt
@@ -66,9 +67,16 @@ REST = ("rest_m", "rest_M", "rest_beam")
 #: couples' generalised forces (N m, solved by the C glue with the generated Newton steps).
 LOST = ("e_P", "e_H")
 COUPLES = ("Q_th", "Q_ps")
-#: The pieces of ``dynamics.friction_pieces`` and Newton's start ``dynamics.friction_start``.
-PIECES = tuple(f"p{i}" for i in range(14))
+#: The pieces of ``dynamics.friction_pieces`` (Newton's steps take the first 14: the couples'
+#: factors and the loads' affine pieces; the rates all 25).
+PIECES = tuple(f"p{i}" for i in range(25))
+_LOADS = PIECES[:14]
 _NEWTON = ("n_R", "n_H")
+#: The convergence of a Newton step: the magnitudes before it and the step before (N); the
+#: margins and the step (N).
+_MARGIN_IN = (*_NEWTON, "o_R", "o_H", "s_R", "s_H")
+_MARGIN_OUT = ("m_R", "m_H", "d_R", "d_H")
+_FIRST_STEPS = (*_NEWTON, "d_R", "d_H", "m_R", "m_H")
 
 
 @cache
@@ -174,6 +182,11 @@ def phase_outputs(phase: int, friction: bool = False,
     return build
 
 
+#: How closely the generated first Newton steps match the Python's: the second step (N) is a
+#: difference of magnitudes 1e4 to 1e5 times its size (sympy writes it as a quotient, the
+#: Python subtracts), so its rounding is that of the magnitudes, ~1e-16 of 1e6 N.
+FIRST_STEPS_TOLERANCE = 1e-9
+
 #: Relative step of the central differences that check the generated Jacobians.
 FD_STEP = 1e-5
 
@@ -200,13 +213,9 @@ def _jacobian(phase: int) -> Build:
     return build
 
 
-def _rates(phase: int, friction: bool = False) -> Build:
+def _rates(phase: int) -> Build:
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
         y = [x[n] for n in STATES[phase]]
-        if friction:
-            y += [x[n] for n in LOST]
-            d = dyn.state_derivative_under(phase, y, e, g, H, x["Q_th"], x["Q_ps"], lib)
-            return d[:len(y)]
         if phase == 1:
             return dyn.state_rates_phase1(y, e, g, H, lib)
         if phase == 2:
@@ -259,19 +268,40 @@ def _projectile(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any
 
 
 def _pieces(phase: int) -> Build:
-    """:func:`dynamics.friction_pieces` of ``phase`` and Newton's start
-    (:func:`dynamics.friction_start`)."""
+    """:func:`dynamics.friction_pieces` of ``phase``."""
     def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
         y = [x[n] for n in STATES[phase]]
         th, ps, ph, th_d, ps_d, ph_d = (y[0], y[1], y[2], y[3], y[4], y[5]) if phase == 2 else (
             y[0], y[1], 0.0, y[2], y[3], 0.0)
         p = dyn.friction_pieces(phase, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
-        return [*p[:len(PIECES)], *dyn.friction_start(p, lib)]
+        return list(p[:len(PIECES)])
     return build
 
 
+def _first_steps(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+    return dyn.friction_first_steps(tuple(x[n] for n in _LOADS), lib)
+
+
 def _newton(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
-    return dyn.friction_newton_step(tuple(x[n] for n in PIECES), x["n_R"], x["n_H"], lib)
+    return dyn.friction_newton_step(tuple(x[n] for n in _LOADS), x["n_R"], x["n_H"], lib)
+
+
+def _newton_margins(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+    """The margins of a step of ``dynamics.friction_solve`` from ``o`` to ``n``
+    (``dynamics.friction_newton_margin``) and the step."""
+    d_R, d_H = x["n_R"] - x["o_R"], x["n_H"] - x["o_H"]
+    return (dyn.friction_newton_margin(d_R, x["s_R"], x["n_R"]),
+            dyn.friction_newton_margin(d_H, x["s_H"], x["n_H"]), d_R, d_H)
+
+
+def _friction_rates(phase: int) -> Build:
+    """``dynamics.friction_derivative`` of ``phase`` from the state, the pieces and the solved
+    load magnitudes."""
+    def build(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> tuple:
+        y = [x[n] for n in (*STATES[phase], *LOST)]
+        p = tuple(x[n] for n in PIECES)
+        return dyn.friction_derivative(phase, y, p, x["n_R"], x["n_H"], e, g)[:len(y)]
+    return build
 
 
 def _couples(e: Any, g: Any, H: Any, x: dict[str, Any], lib: Any) -> list[Any]:
@@ -316,8 +346,16 @@ def _all_formulas() -> tuple[Formula, ...]:
                            STATES[1], ("margin",), _event(pev.LIFT_OFF, 1), fixed))
         out += _friction_formulas(fixed, angles_loads)
     out += [
+        Formula("friction_first_steps", "dynamics.friction_first_steps: Newton's first two "
+                "steps on the bearings' load magnitudes (N), the second step and its margins",
+                _LOADS, _FIRST_STEPS, _first_steps, friction=True,
+                tolerance=FIRST_STEPS_TOLERANCE),
         Formula("friction_newton", "dynamics.friction_newton_step: one Newton step on the "
-                "bearings' load magnitudes (N)", (*PIECES, *_NEWTON), _NEWTON, _newton),
+                "bearings' load magnitudes (N)", (*_LOADS, *_NEWTON), _NEWTON, _newton,
+                friction=True),
+        Formula("friction_newton_margins", "dynamics.friction_newton_margin of both loads "
+                "(<= 0: converged to round-off) and the step (N)", _MARGIN_IN, _MARGIN_OUT,
+                _newton_margins, friction=True),
         Formula("friction_couples", "dynamics.friction_result: Q_th, Q_ps (N m)",
                 ("p0", "p1", *_NEWTON), COUPLES, _couples),
         Formula("sling_upright", "phase_events.sling_upright_margin", STATES[1], ("margin",),
@@ -351,20 +389,20 @@ def _all_formulas() -> tuple[Formula, ...]:
 
 def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formula]:
     """The formulas of an engine with friction in its bearings: the couples' pieces, and the
-    rates, outputs and lift-off under the couples' generalised forces (the C glue solves
-    those with :data:`FRICTION_NEWTON_STEPS` generated Newton steps, as
-    :func:`dynamics.friction_forces` does)."""
+    state's rates from the pieces and the solved loads, the outputs and lift-off under the
+    couples' generalised forces (the C glue solves those with the generated Newton steps, as
+    :func:`dynamics.friction_solve` does)."""
     cw = "fixed" if fixed else "hinged"
     out = []
     for phase in (1, 2, 3):
         out.append(Formula(f"friction_pieces{phase}_{cw}", f"phase {phase}: "
-                           "dynamics.friction_pieces and friction_start", STATES[phase],
-                           (*PIECES, *_NEWTON), _pieces(phase), fixed, friction=True))
+                           "dynamics.friction_pieces", STATES[phase], PIECES, _pieces(phase),
+                           fixed, friction=True))
         out.append(Formula(f"rates{phase}_{cw}_friction", f"phase {phase} state derivative "
-                           "with friction (dynamics.state_derivative_under)",
-                           (*STATES[phase], *LOST, *COUPLES),
+                           "with friction (dynamics.friction_derivative)",
+                           (*STATES[phase], *LOST, *PIECES, *_NEWTON),
                            tuple(f"d_{n}" for n in (*STATES[phase], *LOST)),
-                           _rates(phase, True), fixed, friction=True))
+                           _friction_rates(phase), fixed, friction=True))
         out.append(Formula(f"outputs{phase}_{cw}_friction", f"phase {phase} angles, rates, "
                            "accelerations and loads with friction",
                            (*STATES[phase], *LOST, *COUPLES, *REST), angles_loads,
@@ -380,17 +418,6 @@ def _friction_formulas(fixed: bool, angles_loads: tuple[str, ...]) -> list[Formu
 
 FORMULAS: tuple[Formula, ...] = _all_formulas()
 
-def _printer():  # noqa: ANN202 - sympy's printer class
-    from sympy.printing.c import C99CodePrinter
-
-    class Printer(C99CodePrinter):
-        """C99 with every float literal printed to round-trip (``repr``)."""
-
-        def _print_Float(self, expr: Any) -> str:
-            return repr(float(expr))
-
-    return Printer()
-
 
 def _function_c(f: Formula) -> str:
     import sympy as sp
@@ -405,7 +432,7 @@ def _function_c(f: Formula) -> str:
     if len(exprs) != len(f.outputs):
         raise ValueError(f"{f.name}: {len(exprs)} results for {len(f.outputs)} outputs")
     temps, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("t"))
-    pr = _printer()
+    pr = c_printer(products=f.friction)
     used = set().union(*(ex.free_symbols for ex in [*reduced, *(v for _, v in temps)]))
     lines = [f"/* {f.doc}. x: {' '.join(f.inputs) or '-'}; out: {' '.join(f.outputs)} */",
              f"void treb_{f.name}(const double *q, const double *x, double *out)", "{"]
@@ -427,6 +454,8 @@ def generate_header() -> str:
     lines += [f"#define TREB_NQ {len(PARAMETER_NAMES)}",
               f"#define TREB_FRICTION_NEWTON_STEPS {dyn.FRICTION_NEWTON_STEPS}",
               f"#define TREB_N_PIECES {len(PIECES)}",
+              f"#define TREB_N_LOADS {len(_LOADS)}",
+              f"#define TREB_N_FIRST_STEPS {len(_FIRST_STEPS)}",
               f"#define TREB_N_OUTPUTS {len(ANGLE_NAMES) + len(LOAD_OUTPUTS)}", ""]
     lines += [f"#define TREB_OUT_{n} {i}" for i, n in enumerate((*ANGLE_NAMES, *LOAD_OUTPUTS))]
     lines += [""]

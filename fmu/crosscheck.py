@@ -43,10 +43,12 @@ def after_release_for(t_stop: float | None) -> float | None:
 
 
 def reference(times: Sequence[float] | np.ndarray, values: Mapping[str, float | str] | None = None,
-              command_time: float | None = None, t_stop: float | None = None) -> pd.DataFrame:
+              command_time: float | None = None, t_stop: float | None = None,
+              rtol: float | str = "default") -> pd.DataFrame:
     """The FMU's outputs computed in-process: ``simulate`` of the parameters' scene at
     ``times`` (s), released at ``command_time`` (s) if the command rises there between lift-off
-    and the scene's own release; phase III as long as the FMU integrates it for ``t_stop`` (s).
+    and the scene's own release; phase III as long as the FMU integrates it for ``t_stop`` (s);
+    at ``simulate``'s tolerance ``rtol``.
 
     Returns a DataFrame with ``time`` and :data:`~trebuchet.fmu.interface.OUTPUT_NAMES` (the sling
     angles 0 after release, as the FMU reports them).
@@ -63,7 +65,7 @@ def reference(times: Sequence[float] | np.ndarray, values: Mapping[str, float | 
             scene = scene.with_release(time=command_time,
                                        velocity_angle=scene.release.velocity_angle)
     run = simulate(scene, t_eval=np.asarray(times, dtype=float), after_release=after,
-                   method="numba-DOP853")
+                   method="numba-DOP853", rtol=rtol)
     for name in OUTPUT_NAMES:  # a frictionless scene's output has no friction columns: 0
         if name not in run.columns:
             run[name] = 0.0

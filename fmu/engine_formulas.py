@@ -84,9 +84,11 @@ def _engine_formulas() -> tuple[Formula, ...]:
                 for suffix, names, doc in (
                         ("", ROW_NAMES, "every column of simulate's rows"),
                         ("_peak", PEAK_ROW_NAMES, "the columns of the peak search")):
+                    # sines of sums expanded: the peak search's, and every friction row's
+                    expand = bool(suffix) or friction
                     out.append(Formula(f"rows{name}{suffix}", f"{what}: {doc} (dynamics + "
                                        "forces.row_loads)", (*STATES[phase], *extra, *REST),
-                                       names, _rows(phase, friction, names, bool(suffix)),
+                                       names, _rows(phase, friction, names, expand),
                                        fixed, dry=dry, friction=friction))
     out.append(Formula("counterweight_height", "kinematics.counterweight_position_xy: the "
                        "height of the counterweight's centre (m)", ("th", "ps"), ("y_M",),

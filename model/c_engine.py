@@ -73,9 +73,9 @@ class EngineUnavailable(RuntimeError):
 
 
 _MODEL_SOURCES = (kinematics, friction, forces, dynamics, phase_events, flight, scene)
-_FMU_SOURCES = ("codegen.py", "engine_formulas.py", "csources.py", "interface.py", "build.py",
-                "engine_build.py", "c/treb_shot.h", "c/treb_shot.c", "c/treb_batch.h",
-                "c/treb_batch.c", "c/treb_peaks.h", "c/treb_peaks.c")
+_FMU_SOURCES = ("codegen.py", "engine_formulas.py", "c_printer.py", "csources.py",
+                "interface.py", "build.py", "engine_build.py", "c/treb_shot.h", "c/treb_shot.c",
+                "c/treb_batch.h", "c/treb_batch.c", "c/treb_peaks.h", "c/treb_peaks.c")
 _state: dict[str, object] = {}
 
 

@@ -35,8 +35,15 @@ import numpy as np
 
 from trebuchet.model.forces import joint_forces_xy
 from trebuchet.model.friction import (
+    FRICTION_NEWTON_EPS,
+    FRICTION_NEWTON_STEPS,
     friction_couples,
+    friction_first_steps,
     friction_generalised_forces,
+    friction_newton_margin,
+    friction_newton_step,
+    friction_solve,
+    friction_start,
     has_friction,
     loss_powers,
 )
@@ -56,6 +63,11 @@ __all__ = [
     "friction_forces",
     "friction_pieces",
     "friction_newton_step",
+    "friction_newton_margin",
+    "friction_solve",
+    "friction_first_steps",
+    "motion_of_pieces",
+    "friction_derivative",
     "friction_start",
     "friction_result",
     "phase_motion",
@@ -73,6 +85,7 @@ __all__ = [
     "state_derivative",
     "energy_scale",
     "FRICTION_NEWTON_STEPS",
+    "FRICTION_NEWTON_EPS",
 ]
 
 
@@ -204,8 +217,6 @@ def accelerations_phase3(theta: Any, psi: Any, theta_d: Any, psi_d: Any, e: Engi
     return beam_and_counterweight(theta, psi, theta_d, psi_d, 0.0, 0.0, e, g, lib, Q_th, Q_ps)
 
 
-
-
 def phase_accelerations(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
                         e: Engine, g: float, H: float, lib: ModuleType = np, Q_th: Any = 0.0,
                         Q_ps: Any = 0.0) -> tuple[Any, Any, Any, Any, Any]:
@@ -245,11 +256,6 @@ def couple_response(kind: int, th: Any, ps: Any, ph: Any, e: Engine, H: float,
     return th_t, ps_t, follow * th_t, th_p, ps_p, follow * th_p
 
 
-#: Newton steps of :func:`friction_forces` (the third is below round-off for couples of up to
-#: a tenth of what the bearings' loads could turn; tests/test_friction.py measures it).
-FRICTION_NEWTON_STEPS = 3
-
-
 def friction_pieces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
                     e: Engine, g: float, H: float, lib: ModuleType = np) -> tuple:
     """What the couples of the bearings' friction depend on, in phase ``kind`` at the given
@@ -276,23 +282,6 @@ def friction_pieces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, 
             *motion, *r)
 
 
-def friction_newton_step(p: tuple, n_R: Any, n_H: Any, lib: ModuleType = np
-                         ) -> tuple[Any, Any]:
-    """One Newton step on ``n = (|F_R(n)|, |F_H(n)|)`` (N) with the pieces ``p`` of
-    :func:`friction_pieces`: residual ``f = (|F_R(n)| − n_R, |F_H(n)| − n_H)``, Jacobian
-    ``∂|F|/∂n = F̂·∂F/∂n − I``."""
-    Rx, Ry = p[2] + p[6] * n_R + p[8] * n_H, p[3] + p[7] * n_R + p[9] * n_H
-    Hx, Hy = p[4] + p[10] * n_R + p[12] * n_H, p[5] + p[11] * n_R + p[13] * n_H
-    abs_R, abs_H = lib.sqrt(Rx * Rx + Ry * Ry), lib.sqrt(Hx * Hx + Hy * Hy)
-    f_R, f_H = abs_R - n_R, abs_H - n_H
-    J11 = (Rx * p[6] + Ry * p[7]) / abs_R - 1.0
-    J12 = (Rx * p[8] + Ry * p[9]) / abs_R
-    J21 = (Hx * p[10] + Hy * p[11]) / abs_H
-    J22 = (Hx * p[12] + Hy * p[13]) / abs_H - 1.0
-    det = J11 * J22 - J12 * J21
-    return n_R - (f_R * J22 - f_H * J12) / det, n_H - (J11 * f_H - J21 * f_R) / det
-
-
 def friction_forces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, ph_d: Any,
                     e: Engine, g: float, H: float, lib: ModuleType = np
                     ) -> tuple[Any, Any, Any, Any]:
@@ -301,21 +290,12 @@ def friction_forces(kind: int, th: Any, ps: Any, ph: Any, th_d: Any, ps_d: Any, 
 
     The couples are ``τ_P = a_P |F_R|``, ``τ_H = a_H |F_H|``, and the loads follow the
     accelerations the couples cause: ``n = (|F_R(n)|, |F_H(n)|)`` is solved by
-    :data:`FRICTION_NEWTON_STEPS` steps of Newton's method (:func:`friction_newton_step`)
-    from the frictionless magnitudes, on the exact affine loads of :func:`friction_pieces`.
-    No branch depends on the values: the same code runs on floats and arrays, and the FMU's
-    C runs the same steps on functions generated from these."""
+    Newton's method (:func:`friction_solve`) from the frictionless magnitudes, on the exact
+    affine loads of :func:`friction_pieces`. The same code runs on floats and arrays, and the
+    FMU's C runs the same steps on functions generated from these."""
     p = friction_pieces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
-    n_R, n_H = friction_start(p, lib)
-    for _ in range(FRICTION_NEWTON_STEPS):
-        n_R, n_H = friction_newton_step(p, n_R, n_H, lib)
+    n_R, n_H = friction_solve(p, lib)
     return friction_result(p, n_R, n_H)
-
-
-def friction_start(p: tuple, lib: ModuleType = np) -> tuple[Any, Any]:
-    """Newton's start: the frictionless load magnitudes ``|F_R₀|``, ``|F_H₀|`` (N) of the
-    pieces ``p`` of :func:`friction_pieces`."""
-    return lib.sqrt(p[2] * p[2] + p[3] * p[3]), lib.sqrt(p[4] * p[4] + p[5] * p[5])
 
 
 def friction_result(p: tuple, n_R: Any, n_H: Any) -> tuple[Any, Any, Any, Any]:
@@ -358,14 +338,21 @@ def phase_motion(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleTy
 def _friction_motion(kind: int, y: Any, e: Engine, g: float, H: float, lib: ModuleType
                      ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any, Any, Any]:
     """:func:`phase_motion` with the bearings' friction: the couples solved on the pieces of
-    :func:`friction_pieces`, the accelerations the frictionless ones plus the couples'
-    generalised forces times their slopes (equal to :func:`motion_under` of those forces to
-    round-off, without evaluating the equations again)."""
+    :func:`friction_pieces` (:func:`friction_solve`), then :func:`motion_of_pieces`."""
     th, ps, ph, th_d, ps_d, ph_d = _state_angles(kind, y, lib)
     p = friction_pieces(kind, th, ps, ph, th_d, ps_d, ph_d, e, g, H, lib)
-    n_R, n_H = friction_start(p, lib)
-    for _ in range(FRICTION_NEWTON_STEPS):
-        n_R, n_H = friction_newton_step(p, n_R, n_H, lib)
+    n_R, n_H = friction_solve(p, lib)
+    return motion_of_pieces(th, ps, th_d, ps_d, p, n_R, n_H)
+
+
+def motion_of_pieces(th: Any, ps: Any, th_d: Any, ps_d: Any, p: tuple, n_R: Any, n_H: Any
+                     ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any, Any, Any]:
+    """:func:`phase_motion` (θ, ψ, φ in rad, their rates in rad/s and accelerations in rad/s²,
+    the loss powers ``P_P``, ``P_H`` in W) from the angles and rates of beam and counterweight,
+    the pieces ``p`` of :func:`friction_pieces` and the load magnitudes ``n_R``, ``n_H`` (N)
+    that the couples follow: the frictionless accelerations plus the couples' generalised forces
+    times their slopes (equal to :func:`motion_under` of those forces to round-off, without
+    evaluating the equations again); φ, φ̇ are the pieces' (the trough's in phase I)."""
     Q_th, Q_ps, tau_P, tau_H = friction_result(p, n_R, n_H)
     th_dd = p[16] + Q_th * p[19] + Q_ps * p[22]
     ps_dd = p[17] + Q_th * p[20] + Q_ps * p[23]
@@ -433,6 +420,19 @@ def state_derivative_under(kind: int, y: Any, e: Engine, g: float, H: float, Q_t
                            ) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any]:
     """:func:`state_derivative` under given generalised forces of friction (N m)."""
     return _derivative(kind, y, motion_under(kind, y, e, g, H, Q_th, Q_ps, lib), e, g)
+
+
+def friction_derivative(kind: int, y: Any, p: tuple, n_R: Any, n_H: Any, e: Engine,
+                        g: float) -> tuple[Any, Any, Any, Any, Any, Any, Any, Any]:
+    """:func:`state_derivative` of an engine with friction from the pieces ``p`` of
+    :func:`friction_pieces` at the state ``y`` and the solved load magnitudes ``n_R``,
+    ``n_H`` (N, :func:`friction_solve`): :func:`motion_of_pieces`, no equation evaluated
+    again (the C glue's right-hand side, generated from this)."""
+    if kind == 2:
+        th, ps, th_d, ps_d = y[0], y[1], y[3], y[4]
+    else:
+        th, ps, th_d, ps_d = y[0], y[1], y[2], y[3]
+    return _derivative(kind, y, motion_of_pieces(th, ps, th_d, ps_d, p, n_R, n_H), e, g)
 
 
 def _derivative(kind: int, y: Any, m: tuple, e: Engine, g: float) -> tuple:

@@ -89,8 +89,8 @@ def test_simulate_in_c_equals_the_numba_kernel(name):
 @pytest.mark.parametrize("name", sorted(FRICTION))
 def test_friction_in_c_equals_numba_to_rounding_then_within_the_solver_accuracy(name):
     """With friction the two take the same steps through lift-off and release and agree to
-    rounding there (the numba path takes the accelerations under the couples from their
-    slopes, the C solves the equations under them: equal formulas, other rounding); after the
+    rounding there (both take the accelerations under the couples from their slopes, the C
+    in formulas generated from the Python's: equal formulas, other rounding); after the
     beam turns back (tanh of the sliding rate over 1e-3 rad/s) the step control takes other
     steps on the rounding's difference, and the two stay closer to each other than either is
     to the shot at rtol 1e-13."""
@@ -243,7 +243,13 @@ def test_shot_summary_equals_summarize_of_simulate(name):
     assert want["cw_clearance"] == _clearance(run, scene, run.attrs["events"]["release"] + 0.5)
     for k, v in want.items():
         tol = 1e-13 if k == "energy_drift_rel" else 0.0  # a difference of large numbers
-        assert got[k] == pytest.approx(v, rel=1e-11, abs=tol), k
+        rel = 1e-11
+        if k == "energy_drift_rel" and name in FRICTION:
+            # the drift is phase III's integration error (7e-11 of dU, 1e-13 at rtol 1e-13),
+            # where the two take their steps on the rounding's difference after the beam turns
+            # back (test_friction_in_c_equals_numba_...): equal to 1 % of itself, not to 1e-13
+            rel = 1e-2
+        assert got[k] == pytest.approx(v, rel=rel, abs=tol), k
     if name == "horsdal_friction":  # issue 22: 12.6 kJ, 5.0 % of ΔU by the release
         assert got["E_loss_release"] == pytest.approx(12.6e3, rel=5e-3)
         assert got["loss_share"] == pytest.approx(5.0, abs=0.05)

@@ -288,14 +288,22 @@ def test_cosimulation_of_variants_equals_in_process(fmu_path, changes):
     values = {**start_values(), **changes}
     result = simulate_fmu(str(fmu_path), stop_time=1.5, output_interval=1e-3,
                           fmi_type="CoSimulation", start_values=changes)
-    ref = reference(result["time"], values, t_stop=1.5)
     dry = values["start.projectile"] == 3
+    rel, rtol = REL, "default"
+    if dry and "friction.pivot_mu" in changes:
+        # the beam swings for 1.5 s and the hinge sticks (|psi_d - theta_d| ~ 1e-5 rad/s, in
+        # the couples' tanh over 1e-3 rad/s): the friction torque there is 2e6 N m per rad/s of
+        # the integrated rate, and the shots at rtol 1e-10 hold it to the solver's accuracy
+        # only (numba's 1.2e-8 of its peak, the C's 4e-8, against the shot at rtol 1e-13):
+        # the FMU against the Python's shot at 1e-13, to 1e-7 of each output's peak
+        rel, rtol = 1e-7, 1e-13
+    ref = reference(result["time"], values, t_stop=1.5, rtol=rtol)
     if dry:  # no projectile: its position, velocity and energy are not defined
         for name in ("x_m", "y_m", "vx_m", "vy_m"):
             assert np.isnan(result[name]).all() and ref[name].isna().all()
             result[name] = 0.0
             ref[name] = 0.0
-    assert_outputs_equal(result, ref, str(changes))
+    assert_outputs_equal(result, ref, str(changes), rel=rel)
 
 
 @pytest.mark.parametrize("changes", [{}, FRICTION], ids=["frictionless", "friction"])

@@ -35,6 +35,9 @@ RANGES = {  # inputs: uniform between these (rad, rad/s, s, m, m/s, J, ...)
     "e_P": (0.0, 0.1), "e_H": (0.0, 0.1), "Q_th": (-3e4, 3e4), "Q_ps": (-2e4, 2e4),
     "n_R": (1e5, 1e6), "n_H": (1e5, 5e5), "p0": (-0.02, 0.02), "p1": (-0.01, 0.01),
     **{f"p{i}": (-1e6, 1e6) for i in range(2, 6)}, **{f"p{i}": (-0.05, 0.05) for i in range(6, 14)},
+    "p14": (-4.5, -1.7), "p15": (-20.0, 20.0), **{f"p{i}": (-100.0, 100.0) for i in range(16, 19)},
+    **{f"p{i}": (-1e-3, 1e-3) for i in range(19, 25)},  # rad/s² per N m of Q_th, Q_ps
+    "o_R": (1e5, 1e6), "o_H": (1e5, 5e5), "s_R": (-1e3, 1e3), "s_H": (-1e3, 1e3),
 }
 _Q = cg.PARAMETER_NAMES
 

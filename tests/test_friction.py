@@ -92,6 +92,35 @@ def test_newton_reaches_the_fixed_point_of_the_couples(paper):
 
 
 @pytest.mark.parametrize("which", ["paper", "small"])
+def test_newton_stops_where_it_has_converged_to_round_off(which, request):
+    """friction_solve stops when its margins say the steps have converged: after two steps on
+    the sample engines (the third's change below 4 ulp), three at ten times their friction,
+    and its magnitudes equal eight Newton steps' to round-off either way."""
+    scene = request.getfixturevalue(which)
+    rng = np.random.default_rng(11)
+    for scale, steps in ((1.0, 2), (10.0, 3)):
+        fr = scene.friction
+        strong = with_friction(scene, dataclasses.replace(
+            fr, pivot_mu=fr.pivot_mu * scale, hinge_mu=fr.hinge_mu * scale))
+        e, g, H = strong.engine, strong.g, strong.start.H
+        taken = []
+        for phase in (2, 3):
+            for _ in range(20):
+                th, ps, ph = rng.uniform(-0.5, 1.0), rng.uniform(-2.5, 0.5), rng.uniform(-4, -2)
+                th_d, ps_d, ph_d = rng.normal(0, 4, 3)
+                p = dyn.friction_pieces(phase, th, ps, ph, th_d, ps_d, ph_d, e, g, H, math)
+                n_R, n_H = dyn.friction_start(p, math)
+                seq = []
+                for _ in range(8):
+                    n_R, n_H = dyn.friction_newton_step(p, n_R, n_H, math)
+                    seq.append((n_R, n_H))
+                got = dyn.friction_solve(p, math)
+                np.testing.assert_allclose(got, seq[-1], rtol=1e-15)
+                taken.append(next(k + 1 for k in range(8) if seq[k] == got))
+        assert max(taken) <= steps and (scale == 1.0 or steps in taken), taken
+
+
+@pytest.mark.parametrize("which", ["paper", "small"])
 def test_a_shot_with_friction_matches_an_independent_model(which, request):
     """Angles, loads, lost energies and events against an independent implementation of the
     same model (sympy Lagrangian, Newton's law on each body, fixed-point couples, scipy's

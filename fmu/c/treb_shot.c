@@ -35,21 +35,42 @@ int treb_state_size(const TrebScene *sc, int phase)
     return (phase == 2 ? 6 : 4) + (sc->friction ? 2 : 0);
 }
 
+/* The pieces of the bearings' friction at the state y of phase into p (TREB_N_PIECES) and the
+ * load magnitudes |F_R|, |F_H| (N) the couples follow into n: the generated pieces, Newton's
+ * first two steps, then more generated steps until both margins say the steps have converged
+ * to round-off, at most TREB_FRICTION_NEWTON_STEPS in all (model/dynamics.py, friction_solve,
+ * takes the same steps). */
+static void friction_loads(const double *q, int phase, int fixed, const double *y, double *p,
+                           double *n)
+{
+    double x[TREB_N_LOADS + 2], m[6], out[TREB_N_FIRST_STEPS];  /* m: n, n before, step before */
+    PIECES[fixed != 0][phase - 1](q, y, p);
+    treb_friction_first_steps(q, p, out);
+    n[0] = out[0];
+    n[1] = out[1];
+    if (out[4] <= 0.0 && out[5] <= 0.0) return;
+    memcpy(x, p, TREB_N_LOADS * sizeof(double));
+    m[4] = out[2];
+    m[5] = out[3];
+    for (int i = 2; i < TREB_FRICTION_NEWTON_STEPS; i++) {
+        m[2] = x[TREB_N_LOADS] = n[0];
+        m[3] = x[TREB_N_LOADS + 1] = n[1];
+        treb_friction_newton(q, x, n);
+        m[0] = n[0];
+        m[1] = n[1];
+        treb_friction_newton_margins(q, m, out);
+        if (out[0] <= 0.0 && out[1] <= 0.0) break;
+        m[4] = out[2];
+        m[5] = out[3];
+    }
+}
+
 /* The generalised forces Q_th, Q_ps (N m) of the bearings' friction couples at the state y of
- * phase: the generated pieces, TREB_FRICTION_NEWTON_STEPS generated Newton steps, the
- * generated couples (model/dynamics.py, friction_forces, does the same steps). */
+ * phase (model/dynamics.py, friction_forces). */
 void treb_friction_solve(const double *q, int phase, int fixed, const double *y, double *Q)
 {
-    double p[TREB_N_PIECES + 2], x[TREB_N_PIECES + 2], n[2];
-    PIECES[fixed != 0][phase - 1](q, y, p);
-    memcpy(x, p, TREB_N_PIECES * sizeof(double));
-    n[0] = p[TREB_N_PIECES];
-    n[1] = p[TREB_N_PIECES + 1];
-    for (int i = 0; i < TREB_FRICTION_NEWTON_STEPS; i++) {
-        x[TREB_N_PIECES] = n[0];
-        x[TREB_N_PIECES + 1] = n[1];
-        treb_friction_newton(q, x, n);
-    }
+    double p[TREB_N_PIECES], n[2];
+    friction_loads(q, phase, fixed, y, p, n);
     double c[4] = {p[0], p[1], n[0], n[1]};
     treb_friction_couples(q, c, Q);
 }
@@ -61,10 +82,10 @@ static void rhs(const TrebDop *d, const double *y, double *dy)
     if (d->kind == TREB_DRAG_FLIGHT) {
         double x[5] = {d->k_drag, y[0], y[1], y[2], y[3]};
         treb_drag_rates(d->q, x, dy);
-    } else if (d->friction) {  /* the state, its lost energies, the couples' Q */
-        double x[TREB_MAXN + 2];
+    } else if (d->friction) {  /* the state, its lost energies, the pieces, |F_R|, |F_H| */
+        double x[TREB_MAXN + TREB_N_PIECES + 2];
         memcpy(x, y, d->n * sizeof(double));
-        treb_friction_solve(d->q, d->kind, d->fixed, y, x + d->n);
+        friction_loads(d->q, d->kind, d->fixed, y, x + d->n, x + d->n + TREB_N_PIECES);
         RATES_FRICTION[d->fixed != 0][d->kind - 1](d->q, x, dy);
     } else if (d->kind == 1) {
         (d->fixed ? treb_rates1_fixed : treb_rates1_hinged)(d->q, y, dy);
