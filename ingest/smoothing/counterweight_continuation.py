@@ -7,9 +7,9 @@ paper's eq. (A.1)): given the beam's motion θ(t), θ̇(t), θ̈(t), ψ follows 
 one instant, in every phase and whatever the projectile does; the masses do not enter.
 Where the counterweight's track ends while the beam's goes on (a frame member in front of
 it for the rest of the shot, a template that slid off its marker and was flagged), ψ is
-carried on from its last smoothed state by integrating that equation with the smoothed
-beam as the driver. Its sd comes from an ensemble of starting states drawn from the
-smoother's covariance there, each member driven by the smoothed θ̈ shifted by its own
+carried on from its state at the track's end (below) by integrating that equation with the
+smoothed beam as the driver. Its sd comes from an ensemble of starting states drawn from
+that state's covariance, each member driven by the smoothed θ̈ shifted by its own
 multiple (drawn, standard normal) of θ̈'s sd: θ̈'s error enters ψ̈ scaled by L2/L3, near
 1 on a small engine, and without it the stated sd held the drift only to 2-3 sd.
 
@@ -164,7 +164,8 @@ def continued_counterweight(est: dict[str, np.ndarray], scene: Scene, last: int,
     at row ``last``) by the counterweight's pendulum equation, each member of the ensemble
     driven by θ̈ shifted by a drawn multiple of its sd
     (:func:`~trebuchet.ingest.events.driven_pendulum.driven_pendulum`); ``cov_psi``
-    (3, 3): the smoother's covariance of (ψ, ψ̇, ψ̈) at that row (SI)."""
+    (3, 3): the covariance of (ψ, ψ̇, ψ̈) at that row (SI; the smoother's, or the fitted
+    start's, :func:`fitted_start`, in its first two rows and columns)."""
     t, theta, theta_d, theta_dd, theta_dd_sd = (
         np.asarray(est[c], dtype=float)
         for c in ("t", "theta", "theta_d", "theta_dd", "theta_dd_sd"))
