@@ -138,6 +138,30 @@ def test_an_interrupt_raised_inside_a_command_is_one_line_too(monkeypatch, capsy
     assert signal.getsignal(signal.SIGINT) is before  # a caller's Ctrl-C is its own again
 
 
+#: A module whose initialisation is interrupted and, as a compiled module's does (scipy's
+#: HiGHS wrapper, seen at 0.3 s), turns the interrupt into an ImportError.
+_CONVERTING_MODULE = """
+import os, signal, time
+try:
+    os.kill(os.getpid(), signal.SIGINT)
+    time.sleep(5)
+except BaseException as exc:
+    raise ImportError("initialization failed") from exc
+"""
+
+
+def test_ctrl_c_inside_an_import_that_converts_it_is_one_line(tmp_path):
+    """The command's handler ends the process where the interrupt lands inside an import:
+    unwound, it came out as ``ImportError: initialization failed`` and a traceback, exit 1."""
+    (tmp_path / "converting.py").write_text(_CONVERTING_MODULE)
+    code = ("import sys; from trebuchet.core.interrupts import catch_interrupts; "
+            "catch_interrupts(); import converting; print('went on')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=60, env={**os.environ, "PYTHONPATH": str(tmp_path)},
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert (done.returncode, done.stderr, done.stdout) == (130, "trebuchet: interrupted\n", "")
+
+
 def test_only_the_command_takes_ctrl_c():
     """``import trebuchet`` in a program leaves its Ctrl-C alone."""
     assert not interrupts.started_as_command()

@@ -11,8 +11,9 @@ half-written output; a second Ctrl-C ends the process at once.
 So that an interrupt while the package itself is still importing is quiet too, ``import
 trebuchet`` installs the handler when, and only when, the process is the ``trebuchet``
 command (:func:`started_as_command`); a program or a notebook that imports the package keeps
-its own Ctrl-C. This module imports nothing but the standard library's ``os``, ``signal`` and
-``sys``.
+its own Ctrl-C. An interrupt that lands inside an import ends the process at once, after the
+line (:func:`_importing` says why). This module imports nothing but the standard library's
+``os``, ``signal`` and ``sys``.
 """
 
 from __future__ import annotations
@@ -39,7 +40,23 @@ def _interrupted(signum: int, frame: Any) -> None:
     signal.signal(signal.SIGINT, _end_now)
     _close_progress_bars()
     say_interrupted()
+    if _importing(frame):  # a module half initialised cannot unwind cleanly: end here
+        os._exit(INTERRUPTED)
     raise SystemExit(INTERRUPTED)
+
+
+def _importing(frame: Any) -> bool:
+    """The interrupt landed while a module was being imported. Unwinding from there is not
+    safe: a compiled module's initialisation (scipy's HiGHS wrapper, for one) turns the
+    ``SystemExit`` into ``ImportError: initialization failed`` with a traceback, and a
+    ``try: import ... except ImportError`` in a library would swallow it and go on. Nothing
+    is written while the command imports (outputs are written whole at its end, and a
+    temporary file a killed run leaves is removed by the next: :mod:`trebuchet.core.output`)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _end_now(signum: int, frame: Any) -> None:
