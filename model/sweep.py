@@ -11,9 +11,10 @@ builds each design's scene).
 Each design's figures come from the summary-only path
 (:func:`~trebuchet.model.shot_summary.shot_figures`): no table per design, the shot and its
 peaks over the continuous shot in the generated C, a chunk of designs a call
-(:func:`~trebuchet.model.sweep_design.evaluate_designs`) where the designs run in this process
-or an executor's (a worker process of the sweep's own runs one design a call, so that it
-always knows which design it holds).
+(:func:`~trebuchet.model.sweep_design.evaluate_designs`), in this process, an executor's or a
+worker process of the sweep's own; there a chunk that dies or runs over one design's budget
+is run again one design a call (:func:`~trebuchet.model.sweep_design.evaluate_design`), so
+that the worker always knows which design it holds when one of them kills it.
 
 Where designs run: local worker processes (:func:`~trebuchet.model.sweep_pool.run_pool`,
 one per core by default; a worker that dies costs the design it was running, and a design over
@@ -58,6 +59,7 @@ from trebuchet.model.sweep_design import (
     Budget,
     SimulationOptions,
     accuracy_option,
+    batched,
     check_grid,
     design_scene,
     evaluate_design,
@@ -132,6 +134,8 @@ class DesignRunner:
         self.workers = workers or default_workers()
         self.options, self.budget, self.lost_after = options, budget, lost_after
         self._evaluate = partial(evaluate_design, base, options=options, outputs=self.outputs)
+        self._evaluate_batch = (partial(_evaluate_chunk, base=base, options=options,
+                                        outputs=self.outputs) if batched(options) else None)
         self._lost = partial(failed_row, outputs=self.outputs)
         self._stack = contextlib.ExitStack()
         self._pool: WorkerPool | None = None
@@ -160,7 +164,8 @@ class DesignRunner:
                     self._evaluate(items[0])
             if self._pool is None:
                 self._pool = self._stack.enter_context(
-                    WorkerPool(self._evaluate, self.workers, self.budget, self._lost))
+                    WorkerPool(self._evaluate, self.workers, self.budget, self._lost,
+                               self._evaluate_batch))
             yield from self._pool.run(_chunks(items, _chunk_size(len(items), self.workers)))
         elif isinstance(self.executor, Executor):
             size = _chunk_size(len(items), self.workers)

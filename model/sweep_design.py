@@ -66,7 +66,7 @@ __all__ = [
     "STATUS_OVER_BUDGET", "STATUS_BACKWARD", "STATUS_GROUND", "SimulationOptions",
     "output_step", "accuracy_option", "parse_grid_values", "parse_grid_option", "check_grid",
     "grid_designs", "design_scene", "summarize", "evaluate_design", "evaluate_designs",
-    "failed_row", "Budget",
+    "failed_row", "Budget", "batched",
     "LOST", "keyed_arguments", "check_workers",
 ]
 
@@ -336,6 +336,12 @@ def evaluate_design(base: Scene, item: tuple[int, Mapping[str, float]], *,
     return _design_row(item, scene, figures.as_dict(), options, outputs)
 
 
+def batched(options: SimulationOptions) -> bool:
+    """Whether :func:`evaluate_designs` runs its designs in one call of the C engine: the C
+    engine runs here, and the options have no sizing rules and no output step."""
+    return not options.sizing and options.dt is None and c_engine.available(quiet=True)
+
+
 def evaluate_designs(base: Scene, items: Sequence[tuple[int, Mapping[str, float]]], *,
                      options: SimulationOptions = SimulationOptions(),
                      outputs: Sequence[str] = tuple(SUMMARY_COLUMNS)) -> list[dict[str, Any]]:
@@ -343,7 +349,7 @@ def evaluate_designs(base: Scene, items: Sequence[tuple[int, Mapping[str, float]
     from one call of the C engine (:func:`~trebuchet.model.shot_summary.designs_values`)
     where it runs and the options allow (no sizing rules, no output step); a design the C
     refuses runs alone, which words the refusal."""
-    if options.sizing or options.dt is not None or not c_engine.available(quiet=True):
+    if not batched(options):
         return [evaluate_design(base, item, options=options, outputs=outputs) for item in items]
     rows: list[dict[str, Any] | None] = [None] * len(items)
     built: list[tuple[int, Scene]] = []

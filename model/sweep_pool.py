@@ -14,6 +14,13 @@ each worker holds:
   ``/proc``; the worker's address space is also capped there, so that a single huge allocation
   raises ``MemoryError`` in the design instead), is stopped: its row is ``over_budget``.
 
+Given an ``evaluate_batch`` (the sweep's batched C path, where it applies), a worker first runs
+a whole chunk in one call, its slot marked "running a batch" (:data:`_BATCH`) with the start
+time: a batch that dies, runs longer than ONE design's ``seconds`` or grows past ``memory`` is
+stopped and its whole chunk goes back in the queue marked "one by one", where the per-design
+path above names the culprit (no row lost or doubled; a batch's death is no idle death); a
+batch that raises is run one by one in the worker itself.
+
 Workers are forked where the platform can (the parent's compiled kernels come along) and
 spawned elsewhere; they ignore Ctrl-C (the parent stops them) and die with the parent on Linux.
 """
@@ -37,6 +44,7 @@ from trebuchet.model.sweep_design import LOST, STATUS_FAILED, STATUS_OVER_BUDGET
 __all__ = ["WorkerPool", "run_pool"]
 
 _IDLE = -1.0
+_BATCH = -2.0  # the slot's mark of a worker running a whole chunk in one call
 _POLL = 0.2  # s between the parent's looks at running designs (time, memory)
 
 
@@ -74,31 +82,32 @@ def _cap_address_space(memory: int | None) -> None:
 
 
 def _worker(conn: Any, slot: Any, evaluate: Callable[[Any], dict],
-            lost_row: Callable[[Any, str, str], dict], memory: int | None) -> None:
-    """A worker's loop: receive a chunk of ``(index, params)`` items, evaluate each (its index
-    and start time in ``slot`` meanwhile), send back the rows; stop on None or a closed pipe.
-    An allocation beyond the address-space cap makes the design ``over_budget``."""
+            lost_row: Callable[[Any, str, str], dict], memory: int | None,
+            evaluate_batch: Callable[[list], list[dict]] | None = None) -> None:
+    """A worker's loop: receive ``(chunk, batched)`` (a chunk of ``(index, params)`` items),
+    evaluate it (a batched chunk in one call of ``evaluate_batch``, the slot marked
+    :data:`_BATCH`; else, or if that raises, one item at a time, its index and start time in
+    ``slot`` meanwhile), send back the rows; stop on None or a closed pipe. An allocation
+    beyond the address-space cap makes the design ``over_budget``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent()
     _cap_address_space(memory)
     while True:
         try:
-            chunk = conn.recv()
+            task = conn.recv()
         except (EOFError, OSError):
             return
-        if chunk is None:
+        if task is None:
             return
-        rows = []
-        for item in chunk:
+        chunk, batched = task
+        rows = None
+        if batched and evaluate_batch is not None:
             slot[1] = time.monotonic()
-            slot[0] = float(item[0])
-            try:
-                rows.append(evaluate(item))
-            except MemoryError:
-                rows.append(lost_row(item, STATUS_OVER_BUDGET, "over the memory budget: an "
-                                     f"allocation failed beyond {memory / 2**20:.0f} MiB"))
-            except Exception as exc:  # noqa: BLE001 - the row says what went wrong
-                rows.append(lost_row(item, STATUS_FAILED, f"{type(exc).__name__}: {exc}"))
+            slot[0] = _BATCH
+            with contextlib.suppress(Exception):  # MemoryError too: one by one says which
+                rows = evaluate_batch(chunk)
+        if rows is None:
+            rows = [_one(item, slot, evaluate, lost_row, memory) for item in chunk]
         slot[0] = _IDLE
         try:
             conn.send(rows)
@@ -106,28 +115,43 @@ def _worker(conn: Any, slot: Any, evaluate: Callable[[Any], dict],
             return
 
 
+def _one(item: Any, slot: Any, evaluate: Callable[[Any], dict],
+         lost_row: Callable[[Any, str, str], dict], memory: int | None) -> dict:
+    """The row of one design in a worker, its index and start time in ``slot`` meanwhile."""
+    slot[1] = time.monotonic()
+    slot[0] = float(item[0])
+    try:
+        return evaluate(item)
+    except MemoryError:
+        return lost_row(item, STATUS_OVER_BUDGET, "over the memory budget: an allocation "
+                        f"failed beyond {(memory or 0) / 2**20:.0f} MiB")
+    except Exception as exc:  # noqa: BLE001 - the row says what went wrong
+        return lost_row(item, STATUS_FAILED, f"{type(exc).__name__}: {exc}")
+
+
 class _Worker:
     """One worker process, its pipe, its shared slot and the chunk it holds."""
 
     def __init__(self, ctx: Any, evaluate: Callable[[Any], dict],
-                 lost_row: Callable[[Any, str, str], dict], memory: int | None) -> None:
+                 lost_row: Callable[[Any, str, str], dict], memory: int | None,
+                 evaluate_batch: Callable[[list], list[dict]] | None) -> None:
         self.slot = ctx.RawArray("d", [_IDLE, 0.0])
         self.conn, child = ctx.Pipe()
         self.proc = ctx.Process(target=_worker, args=(child, self.slot, evaluate, lost_row,
-                                                      memory), daemon=True)
+                                                      memory, evaluate_batch), daemon=True)
         self.proc.start()
         child.close()
-        self.chunk: list | None = None
+        self.task: tuple[list, bool] | None = None  # the chunk it holds, batched or not
         self.baseline = _rss(self.proc.pid)
 
-    def give(self, chunk: list) -> None:
-        self.chunk = chunk
-        self.conn.send(chunk)
+    @property
+    def chunk(self) -> list | None:
+        """The chunk it holds, or None when idle."""
+        return None if self.task is None else self.task[0]
 
-    def running(self) -> int | None:
-        """Index of the design running now, or None."""
-        i = self.slot[0]
-        return None if i == _IDLE else int(i)
+    def give(self, task: tuple[list, bool]) -> None:
+        self.task = task
+        self.conn.send(task)
 
     def stop(self, kill: bool = False) -> None:
         if kill and self.proc.is_alive():
@@ -163,12 +187,15 @@ class WorkerPool:
     :meth:`run` evaluates chunks in them, :meth:`close` (or leaving the ``with`` block) stops
     them. Each item is ``(index, params)``; a design whose worker died gets
     ``lost_row(item, "failed", reason)``, one over its budget
-    ``lost_row(item, "over_budget", reason)``."""
+    ``lost_row(item, "over_budget", reason)``. With ``evaluate_batch`` (rows of a whole chunk
+    in one call, the same as ``evaluate``'s one by one) a chunk is first tried in one call."""
 
     def __init__(self, evaluate: Callable[[Any], dict], workers: int, budget: Budget,
-                 lost_row: Callable[[Any, str, str], dict]) -> None:
+                 lost_row: Callable[[Any, str, str], dict],
+                 evaluate_batch: Callable[[list], list[dict]] | None = None) -> None:
         self.evaluate, self.workers, self.budget, self.lost_row = (evaluate, workers, budget,
                                                                    lost_row)
+        self.evaluate_batch = evaluate_batch
         self._ctx = _context()
         self._pool: list[_Worker] = []
         self._idle_deaths = 0
@@ -185,12 +212,14 @@ class WorkerPool:
         self._pool = []
 
     def _new(self) -> _Worker:
-        return _Worker(self._ctx, self.evaluate, self.lost_row, self.budget.memory)
+        return _Worker(self._ctx, self.evaluate, self.lost_row, self.budget.memory,
+                       self.evaluate_batch)
 
     def run(self, chunks: Sequence[list]) -> Iterator[list[dict]]:
         """Yield the rows of each chunk as it finishes (a chunk cut by a dead worker comes
         back in parts)."""
-        queue = collections.deque(list(c) for c in chunks if len(c))
+        batched = self.evaluate_batch is not None
+        queue = collections.deque((list(c), batched) for c in chunks if len(c))
         while len(self._pool) < min(self.workers, len(queue)):
             self._pool.append(self._new())
         timeout = _POLL if self.budget.seconds is None else min(_POLL, self.budget.seconds / 4)
@@ -204,7 +233,7 @@ class WorkerPool:
                         continue
                     rows = _receive(w) if w.conn in ready or w.proc.sentinel in ready else None
                     if rows is not None:
-                        w.chunk = None
+                        w.task = None
                         yield rows
                         continue
                     lost = self._stop_if_due(i, w, queue)
@@ -227,19 +256,26 @@ class WorkerPool:
             try:
                 w.give(queue.popleft())
             except (OSError, ValueError):  # died just now: its chunk goes back
-                queue.appendleft(w.chunk)
-                w.chunk = None
+                queue.appendleft(w.task)
+                w.task = None
 
     def _stop_if_due(self, i: int, w: _Worker, queue: collections.deque) -> list[dict]:
-        """Stop a worker that died or whose design is over its budget: the design's row, the
-        rest of its chunk back in the queue, a new worker in its place."""
-        verdict = _verdict(w, self.budget)
+        """Stop a worker that died or whose design (or batch) is over its budget: the design's
+        row and the rest of its chunk back in the queue (a batch's whole chunk, one by one),
+        a new worker in its place."""
+        alive = w.proc.is_alive()
+        mark, started = w.slot[0], w.slot[1]
+        verdict = _verdict(w, self.budget, alive, mark, started)
         if verdict is None:
             return []
         status, reason = verdict
-        index = w.running()
         w.stop(kill=True)
-        chunk, w.chunk = w.chunk, None
+        chunk, w.task = w.chunk, None
+        self._pool[i] = self._new()
+        if mark == _BATCH:  # the per-design path names the culprit
+            queue.appendleft((chunk, False))
+            return []
+        index = None if mark == _IDLE else int(mark)
         culprit = [item for item in chunk if item[0] == index]
         rest = [item for item in chunk if item[0] != index]
         if not culprit:
@@ -248,16 +284,16 @@ class WorkerPool:
                 raise RuntimeError(f"sweep: worker processes keep dying between designs "
                                    f"({reason})")
         if rest:
-            queue.appendleft(rest)
-        self._pool[i] = self._new()
+            queue.appendleft((rest, False))
         return [self.lost_row(culprit[0], status, reason)] if culprit else []
 
 
 def run_pool(chunks: Sequence[list], evaluate: Callable[[Any], dict], workers: int,
              budget: Budget, lost_row: Callable[[Any, str, str], dict],
+             evaluate_batch: Callable[[list], list[dict]] | None = None,
              ) -> Iterator[list[dict]]:
     """:meth:`WorkerPool.run` once, in a pool of its own."""
-    with WorkerPool(evaluate, workers, budget, lost_row) as pool:
+    with WorkerPool(evaluate, workers, budget, lost_row, evaluate_batch) as pool:
         yield from pool.run(chunks)
 
 
@@ -271,13 +307,15 @@ def _receive(w: _Worker) -> list[dict] | None:
     return None
 
 
-def _verdict(w: _Worker, budget: Budget) -> tuple[str, str] | None:
+def _verdict(w: _Worker, budget: Budget, alive: bool, mark: float, started: float,
+             ) -> tuple[str, str] | None:
     """Why a busy worker must be stopped now: ``("failed", reason)`` if it died,
-    ``("over_budget", reason)`` if its design is over the budget; None to let it run."""
-    if not w.proc.is_alive():
+    ``("over_budget", reason)`` if its design (or its batch: a whole chunk held to one
+    design's budget) is over the budget; None to let it run. ``mark`` and ``started`` are its
+    slot, read in that order after ``alive`` (the worker writes them the other way round)."""
+    if not alive:
         return STATUS_FAILED, f"{LOST} ({_death(w.proc.exitcode)}) while running this design"
-    started = w.slot[1]
-    if w.running() is None:
+    if mark == _IDLE:
         return None
     if budget.seconds is not None and time.monotonic() - started > budget.seconds:
         return STATUS_OVER_BUDGET, ("over the time budget: still running after "

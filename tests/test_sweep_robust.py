@@ -35,15 +35,23 @@ def serial(horsdal) -> pd.DataFrame:
 
 
 def _sabotage(monkeypatch, victim: int, act) -> None:
-    """Make design ``victim`` run ``act()`` in a worker process (never in this process)."""
-    real = sweep_module.evaluate_design
+    """Make design ``victim`` run ``act()`` in a worker process (never in this process), run
+    alone or in a batch (a worker's chunk in one call: then the batch dies, stalls or grows,
+    and the chunk's rerun one design a call names the victim)."""
+    real, real_many = sweep_module.evaluate_design, sweep_module.evaluate_designs
 
     def evaluate(base, item, **kwargs):
         if item[0] == victim and os.getpid() != PARENT:
             act()
         return real(base, item, **kwargs)
 
+    def evaluate_many(base, items, **kwargs):
+        if any(index == victim for index, _ in items) and os.getpid() != PARENT:
+            act()
+        return real_many(base, items, **kwargs)
+
     monkeypatch.setattr(sweep_module, "evaluate_design", evaluate)
+    monkeypatch.setattr(sweep_module, "evaluate_designs", evaluate_many)
 
 
 def _others_equal(table: pd.DataFrame, serial: pd.DataFrame, victim: int) -> None:
@@ -78,19 +86,128 @@ def test_design_over_memory_budget_is_stopped(monkeypatch, horsdal, serial):
     machine's memory is not touched (the worker's address space is capped)."""
     from trebuchet.model import sweep_design
 
-    real = sweep_design.shot_figures
+    real, real_many = sweep_design.shot_figures, sweep_design.designs_values
 
     def figures(scene, **kwargs):
         if scene.source == "design 6" and os.getpid() != PARENT:
             np.ones(2**29)
         return real(scene, **kwargs)
 
+    def many(scenes, **kwargs):  # a batch holding design 6 runs out of memory too
+        if any(s.source == "design 6" for s in scenes) and os.getpid() != PARENT:
+            np.ones(2**29)
+        return real_many(scenes, **kwargs)
+
     monkeypatch.setattr(sweep_design, "shot_figures", figures)
+    monkeypatch.setattr(sweep_design, "designs_values", many)
     table = sweep(horsdal, GRID, workers=2, progress=False, options=FAST,
                   budget=Budget(memory=256 * 2**20))
     big = table.iloc[6]
     assert big["status"] == "over_budget" and "memory budget" in big["error"]
     _others_equal(table, serial, 6)
+
+
+# --------------------------------------------------------------------------- batches
+
+#: 24 designs: on 2 workers chunks of 3, each run in one batched call of the C.
+BIG = {"engine.M": [15000.0, 16000.0, 17000.0, 18000.0, 19100.0, 20000.0, 21000.0, 22000.0],
+       "release.velocity_angle_deg": [35.0, 40.0, 45.0]}
+
+
+def _logged(log: Path, what: str, items) -> None:
+    with open(log, "a") as f:
+        f.write(f"{os.getpid()} {what} {' '.join(str(i) for i, _ in items)}\n")
+
+
+def test_batch_killed_midway_loses_no_design(monkeypatch, tmp_path, horsdal):
+    """A worker killed half-way through a batch: its chunk is run again one design a call,
+    which names the victim; no row is lost or doubled, the others are the serial table's."""
+    victim, log = 10, tmp_path / "calls.txt"
+    real, real_many = sweep_module.evaluate_design, sweep_module.evaluate_designs
+
+    def evaluate(base, item, **kwargs):
+        if os.getpid() != PARENT:
+            _logged(log, "one", [item])
+            if item[0] == victim:
+                os.kill(os.getpid(), signal.SIGKILL)
+        return real(base, item, **kwargs)
+
+    def evaluate_many(base, items, **kwargs):
+        if os.getpid() != PARENT:
+            _logged(log, "batch", items)
+            if any(index == victim for index, _ in items):  # half done, then killed
+                real_many(base, [it for it in items if it[0] < victim], **kwargs)
+                os.kill(os.getpid(), signal.SIGKILL)
+        return real_many(base, items, **kwargs)
+
+    serial = sweep(horsdal, BIG, workers=1, progress=False, options=FAST)
+    monkeypatch.setattr(sweep_module, "evaluate_design", evaluate)
+    monkeypatch.setattr(sweep_module, "evaluate_designs", evaluate_many)
+    table = sweep(horsdal, BIG, workers=2, progress=False, options=FAST)
+    assert list(table["design"]) == list(range(24))
+    assert list(table.index[table["status"] != "ok"]) == [victim]
+    assert table["error"].iloc[victim].startswith("its worker process died (killed by SIGKILL)")
+    _others_equal(table, serial, victim)
+    calls = [line.split() for line in log.read_text().splitlines()]
+    batches = [c[2:] for c in calls if c[1] == "batch"]
+    ones = sorted(int(c[2]) for c in calls if c[1] == "one")
+    assert len(batches) == 8 and all(len(b) == 3 for b in batches)
+    # the victim's chunk only, one by one; then its rest (9, whose row died with the worker,
+    # and 11) in a new worker
+    assert ones == [9, 9, 10, 11]
+
+
+def test_batch_that_raises_runs_one_by_one_in_its_worker(monkeypatch, tmp_path, horsdal,
+                                                          serial):
+    """An exception in a worker's batched call: the worker runs that chunk one design a call
+    itself (no worker lost), and the rows are the serial table's."""
+    log = tmp_path / "calls.txt"
+    real, real_many = sweep_module.evaluate_design, sweep_module.evaluate_designs
+
+    def evaluate(base, item, **kwargs):
+        if os.getpid() != PARENT:
+            _logged(log, "one", [item])
+        return real(base, item, **kwargs)
+
+    def evaluate_many(base, items, **kwargs):
+        if os.getpid() != PARENT:
+            _logged(log, "batch", items)
+            if any(index == 3 for index, _ in items):
+                raise RuntimeError("sabotage")
+        return real_many(base, items, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "evaluate_design", evaluate)
+    monkeypatch.setattr(sweep_module, "evaluate_designs", evaluate_many)
+    table = sweep(horsdal, GRID, workers=2, progress=False, options=FAST)
+    pd.testing.assert_frame_equal(table, serial)
+    calls = [line.split() for line in log.read_text().splitlines()]
+    assert [c for c in calls if c[1] == "one"] == [[c[0], "one", "3"] for c in calls
+                                                    if c[1] == "batch" and c[2:] == ["3"]]
+
+
+def _row(item):
+    return {"design": item[0], "status": "ok"}
+
+
+def _kill_batch(chunk):
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _lost_row(item, status, reason):
+    return {"design": item[0], "status": status}
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="kill -9 of workers")
+def test_batch_deaths_are_not_idle_deaths():
+    """Every batch dies: more deaths than the pool forgives between designs (3 a worker + 3),
+    yet each chunk's rerun one design a call gives every row."""
+    from trebuchet.model.sweep_pool import WorkerPool
+
+    chunks = [[(i, {})] for i in range(12)] + [[(12, {}), (13, {})]]
+    with WorkerPool(_row, 2, Budget(), _lost_row, _kill_batch) as pool:
+        rows = [row for batch in pool.run(chunks) for row in batch]
+    assert sorted(r["design"] for r in rows) == list(range(14))
+    assert {r["status"] for r in rows} == {"ok"}
 
 
 def test_bad_budget_refused(horsdal):
