@@ -98,10 +98,12 @@ _OPTIONS, _BUDGET = SimulationOptions(), Budget()  # the defaults (frozen)
 MAX_CHUNK = 64
 
 
-def _chunk_size(n: int, workers: int) -> int:
-    """About four chunks per worker (few round trips, and a slow chunk does not stall the end),
-    at most :data:`MAX_CHUNK` designs."""
-    return max(1, min(MAX_CHUNK, math.ceil(n / (4 * workers))))
+def _chunk_size(n: int, workers: int, per_worker: int = 4) -> int:
+    """About ``per_worker`` chunks per worker (few round trips, and a slow chunk does not stall
+    the end; one where a worker runs a chunk in one batched call, ~0.1 ms a design, so that
+    the optimiser's small generations cost one round trip a worker), at most
+    :data:`MAX_CHUNK` designs."""
+    return max(1, min(MAX_CHUNK, math.ceil(n / (per_worker * workers))))
 
 
 def _chunks(items: Sequence[Any], size: int) -> list[list[Any]]:
@@ -166,7 +168,8 @@ class DesignRunner:
                 self._pool = self._stack.enter_context(
                     WorkerPool(self._evaluate, self.workers, self.budget, self._lost,
                                self._evaluate_batch))
-            yield from self._pool.run(_chunks(items, _chunk_size(len(items), self.workers)))
+            size = _chunk_size(len(items), self.workers, 1 if self._evaluate_batch else 4)
+            yield from self._pool.run(_chunks(items, size))
         elif isinstance(self.executor, Executor):
             size = _chunk_size(len(items), self.workers)
             yield from self.executor.map(partial(_evaluate_chunk, base=self.base,

@@ -153,13 +153,18 @@ class _Worker:
         self.task = task
         self.conn.send(task)
 
-    def stop(self, kill: bool = False) -> None:
+    def tell_stop(self) -> None:
+        """Ask it to end (after the chunk it holds)."""
+        with contextlib.suppress(OSError, ValueError):
+            self.conn.send(None)
+
+    def stop(self, kill: bool = False, told: bool = False) -> None:
+        """End it: killed, or asked to (unless ``told`` already) and waited for."""
         if kill and self.proc.is_alive():
             with contextlib.suppress(OSError):
                 os.kill(self.proc.pid, signal.SIGKILL)
-        with contextlib.suppress(OSError, ValueError):
-            if not kill:
-                self.conn.send(None)
+        if not (kill or told):
+            self.tell_stop()
         self.proc.join(timeout=None if kill else 2.0)
         if self.proc.is_alive():
             self.proc.kill()
@@ -207,8 +212,11 @@ class WorkerPool:
         self.close()
 
     def close(self) -> None:
+        for w in self._pool:  # all told first, so that they end side by side
+            if w.chunk is None:
+                w.tell_stop()
         for w in self._pool:
-            w.stop(kill=w.chunk is not None)
+            w.stop(kill=w.chunk is not None, told=True)
         self._pool = []
 
     def _new(self) -> _Worker:
