@@ -6,8 +6,9 @@ table. The baseline, timed in the same run: one ``simulate()`` call of the paper
 (its table every 1 ms, 0.5 s past the release), the mean of 200 back to back. Then one
 ``shot_figures()`` call (the summary-only path of a design: its shot and peaks in one call of
 the C), and the sweep in this process (``workers=1``: a chunk of designs a call of the C) and
-on every local worker process the machine gives (their start included; a worker runs one
-design a call), on the summary path and, for comparison, with ``--dt 0.001`` (the peaks over
+on every local worker process the machine gives (their start included; a worker runs a
+chunk of designs a call of the C too, one design a call only to name a design that killed
+it), on the summary path and, for comparison, with ``--dt 0.001`` (the peaks over
 a table's rows).
 
 The machine is shared: each figure is the best of :data:`REPEATS` runs (another process's
