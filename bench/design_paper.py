@@ -121,8 +121,9 @@ def run(out_dir: str | Path | None = None) -> pd.DataFrame:
     searches = out.iloc[1:]
     out.attrs["notes"] = [
         f"the sweep took {sweep_s[0]:.2f} s and {sweep_s[1]:.2f} s (before and after the "
-        f"searches, each the least of {REPEATS} runs); time_ratio is over the faster, "
-        f"{default_workers()} worker processes each",
+        f"searches, each the least of {REPEATS} runs); time_ratio is over the faster; each at "
+        f"its default: the sweep on {default_workers()} worker processes, the design in this "
+        "process (the generated C, many designs a call)",
         "targets: range_share >= 0.995, every limit met when checked, time_ratio <= 0.5; met: "
         f"range {bool((searches['range_share'] >= 0.995).all())}, limits "
         f"{bool(searches['limits_met_checked'].all())}, time "

@@ -51,6 +51,7 @@ from trebuchet.model.sweep import (
     evaluate_design,
     summarize,
 )
+from trebuchet.model.sweep_design import batched
 
 __all__ = ["design", "DesignResult", "LimitCheck", "figure_unit"]
 
@@ -147,7 +148,12 @@ def design(scene: Scene | str | Path, vary: Mapping[str, Any], maximize: str | N
     seed : int, optional
         Makes the search repeatable.
     workers, executor :
-        Where designs run, as :func:`trebuchet.model.sweep.sweep`.
+        Where designs run, as :func:`trebuchet.model.sweep.sweep`, but for the default: in
+        this process wherever the generated C runs designs many a call (no sizing rules, no
+        output step). A search's batches are small (a generation of a few dozen designs, a
+        polish step of a few), and worker processes' round trips and start-up cost more
+        than they save there (docs/benchmarks.md, "Design under limits"); a design then has
+        no time or memory budget. Give ``workers`` to run them in worker processes.
     progress : bool
         A progress bar on stderr.
     options, budget :
@@ -193,6 +199,8 @@ def design(scene: Scene | str | Path, vary: Mapping[str, Any], maximize: str | N
     start_u = problem.unit(start_params)
     total = opts.popsize * len(problem.variables) * (opts.generations + 1) + 8 * len(
         problem.variables) * (opts.polish_steps // 4 if opts.polish else 0)
+    if workers is None and executor is None and batched(options):
+        workers = 1  # small batches: the C runs them here, many a call (``workers`` doc)
     with DesignRunner(base, executor=executor, workers=workers, options=options,
                       budget=budget) as runner, \
             tqdm(total=total, disable=not progress, unit="design", desc="design") as bar:

@@ -62,7 +62,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="FIGURE<=VALUE or FIGURE>=VALUE in SI units, e.g. F_R_peak<=468905 or "
                         "cw_clearance>=1.0; repeat for more")
     p.add_argument("--workers", type=int, default=None,
-                   help="local processes (default: one per core; 1 runs in this process)")
+                   help="local processes (default: this process where the generated C runs "
+                        "the designs many a call, else one per core; 1 runs in this process)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the designs on a Dask cluster at ADDRESS (tcp://host:port)")
     p.add_argument("--seed", type=int, default=None, help="makes the search repeatable")
